@@ -1,0 +1,169 @@
+#!/usr/bin/env bash
+# Installs everything the build and the tests need into .deps/ and .venv/
+# (both ignored), from the package registries only. Idempotent: each step
+# leaves a stamp and is skipped when its stamp is present.
+#
+# Overrides: GODOT=/path/to/godot uses your own engine (4.4 or newer);
+# ORT_ROOT=/path with include/onnxruntime/*.h and lib/libonnxruntime.so.1
+# uses your own ONNX Runtime.
+set -euo pipefail
+
+ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+DEPS=$ROOT/.deps
+CACHE=${ARDY_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/ardy-godot}
+mkdir -p "$DEPS/bin" "$CACHE/debs"
+
+ORT_VERSION=1.31.1
+CATCH2_VERSION=3.7.1
+
+log() { printf '[deps] %s\n' "$*" >&2; }
+stamp_ok() { [ -f "$DEPS/.stamp-$1" ]; }
+stamp_set() { touch "$DEPS/.stamp-$1"; }
+
+# The Debian mirror this machine already uses (never written into the repo).
+debian_mirror() {
+  local uri=""
+  if [ -f /etc/apt/sources.list.d/debian.sources ]; then
+    uri=$(awk '/^URIs:/ {print $2; exit}' /etc/apt/sources.list.d/debian.sources)
+  fi
+  if [ -z "$uri" ] && [ -f /etc/apt/sources.list ]; then
+    uri=$(awk '$1 == "deb" { for (i = 2; i <= NF; i++) if ($i ~ /^[a-z]+:\/\//) { print $i; exit } }' /etc/apt/sources.list)
+  fi
+  [ -n "$uri" ] || { echo "deps: cannot find a Debian mirror in /etc/apt" >&2; exit 1; }
+  echo "${uri%/}"
+}
+
+# A private apt configuration: nothing on the host changes.
+APT_DIR=$DEPS/apt
+private_apt() {
+  apt-get -q -o Dir::Etc::sourcelist="$APT_DIR/sources.list" -o Dir::Etc::sourceparts=/dev/null \
+    -o Dir::State::Lists="$APT_DIR/lists" -o Dir::Cache="$APT_DIR/cache" \
+    -o Dir::State::status="$APT_DIR/status" -o APT::Install-Recommends=false \
+    -o Debug::NoLocking=1 -o APT::Sandbox::User=root "$@"
+}
+
+apt_setup() {
+  stamp_ok apt && return 0
+  log "private apt configuration"
+  local mirror; mirror=$(debian_mirror)
+  mkdir -p "$APT_DIR/lists/partial" "$APT_DIR/cache/archives/partial"
+  : > "$APT_DIR/status"
+  cat > "$APT_DIR/sources.list" <<SRC
+deb $mirror sid main
+deb $mirror bookworm main
+deb-src $mirror trixie main
+SRC
+  # Prefer bookworm where a package exists in both (GLM), sid for the rest.
+  private_apt update >/dev/null 2>"$APT_DIR/update.log" || { cat "$APT_DIR/update.log" >&2; exit 1; }
+  stamp_set apt
+}
+
+# Download a package closure (the .debs cached outside the checkout) and
+# extract it into a root folder.
+extract_debs() {  # root_dir apt-args...
+  local root=$1; shift
+  mkdir -p "$root"
+  private_apt -o Dir::Cache::archives="$CACHE/debs" install --download-only -y "$@" >/dev/null
+  private_apt -s install -y "$@" | awk '/^Inst / {print $2, $3}' | tr -d '()' |
+    while read -r name ver; do
+      local deb; deb=$(ls "$CACHE/debs/${name}_${ver//:/%3a}"_*.deb 2>/dev/null | head -1 || true)
+      [ -n "$deb" ] || { echo "deps: missing download for $name $ver" >&2; exit 1; }
+      dpkg-deb -x "$deb" "$root"
+    done
+}
+
+install_godot() {
+  if [ -n "${GODOT:-}" ]; then
+    log "using GODOT=$GODOT"
+    ln -sf "$GODOT" "$DEPS/bin/godot"
+    return 0
+  fi
+  stamp_ok godot && return 0
+  apt_setup
+  log "Godot 4.6 from Debian sid into .deps/sid-root (about 160 MB, cached)"
+  extract_debs "$DEPS/sid-root" -t sid godot libgl1-mesa-dri libglx-mesa0 libegl-mesa0 libgl1 libegl1
+  local r=$DEPS/sid-root
+  cat > "$DEPS/bin/godot" <<WRAP
+#!/bin/sh
+# Runs Debian sid's Godot with its own loader and libraries (see toolchain.md).
+R="$r"
+export LIBGL_DRIVERS_PATH="\$R/usr/lib/x86_64-linux-gnu/dri"
+export __EGL_VENDOR_LIBRARY_DIRS="\$R/usr/share/glvnd/egl_vendor.d"
+exec "\$R/usr/lib64/ld-linux-x86-64.so.2" --library-path "\$R/usr/lib/x86_64-linux-gnu:\$R/usr/lib/x86_64-linux-gnu/pulseaudio" "\$R/usr/bin/godot" "\$@"
+WRAP
+  chmod +x "$DEPS/bin/godot"
+  "$DEPS/bin/godot" --headless --version >/dev/null
+  stamp_set godot
+}
+
+install_ort() {
+  if [ -n "${ORT_ROOT:-}" ]; then
+    log "using ORT_ROOT=$ORT_ROOT"
+    rm -rf "$DEPS/ort"; ln -sfn "$ORT_ROOT" "$DEPS/ort"
+    return 0
+  fi
+  stamp_ok ort && return 0
+  apt_setup
+  log "ONNX Runtime $ORT_VERSION (PyPI wheel) + C/C++ headers (Debian sid)"
+  local ort=$DEPS/ort
+  rm -rf "$ort" "$DEPS/ort-tmp"; mkdir -p "$ort/lib" "$ort/include" "$DEPS/ort-tmp"
+  pip download -q --no-deps --only-binary=:all: --python-version 3.11 --platform manylinux_2_28_x86_64 \
+    "onnxruntime==$ORT_VERSION" -d "$CACHE/wheels"
+  python3 -m zipfile -e "$CACHE"/wheels/onnxruntime-"$ORT_VERSION"-*.whl "$DEPS/ort-tmp"
+  cp "$DEPS/ort-tmp/onnxruntime/capi/libonnxruntime.so.$ORT_VERSION" "$ort/lib/"
+  ln -sf "libonnxruntime.so.$ORT_VERSION" "$ort/lib/libonnxruntime.so.1"
+  ln -sf libonnxruntime.so.1 "$ort/lib/libonnxruntime.so"
+  rm -rf "$DEPS/ort-tmp"
+  (cd "$CACHE/debs" && private_apt download -t sid libonnxruntime-dev >/dev/null)
+  local hdr; hdr=$(ls -t "$CACHE"/debs/libonnxruntime-dev_*.deb | head -1)
+  dpkg-deb -x "$hdr" "$DEPS/ort-tmp"
+  cp -r "$DEPS/ort-tmp/usr/include/onnxruntime" "$ort/include/"
+  rm -rf "$DEPS/ort-tmp"
+  stamp_set ort
+}
+
+install_glm() {
+  stamp_ok glm && return 0
+  apt_setup
+  log "GLM headers (Debian bookworm)"
+  (cd "$CACHE/debs" && private_apt download -t bookworm libglm-dev >/dev/null)
+  local deb; deb=$(ls -t "$CACHE"/debs/libglm-dev_0.9*.deb | head -1)
+  rm -rf "$DEPS/glm-tmp"; dpkg-deb -x "$deb" "$DEPS/glm-tmp"
+  rm -rf "$DEPS/glm"; mkdir -p "$DEPS/glm/include"
+  cp -r "$DEPS/glm-tmp/usr/include/glm" "$DEPS/glm/include/"
+  rm -rf "$DEPS/glm-tmp"
+  stamp_set glm
+}
+
+install_catch2() {
+  stamp_ok catch2 && return 0
+  apt_setup
+  log "Catch2 $CATCH2_VERSION amalgamated source (Debian trixie source package)"
+  local tarball=$CACHE/catch2_$CATCH2_VERSION.orig.tar.gz
+  if [ ! -f "$tarball" ]; then
+    (cd "$CACHE" && private_apt source --download-only catch2 >/dev/null 2>&1 || true)
+    [ -f "$tarball" ] || { echo "deps: could not download catch2 source" >&2; exit 1; }
+  fi
+  rm -rf "$DEPS/catch2"; mkdir -p "$DEPS/catch2"
+  tar -xzf "$tarball" -C "$DEPS/catch2" --strip-components=1 \
+    "Catch2-$CATCH2_VERSION/extras/catch_amalgamated.cpp" "Catch2-$CATCH2_VERSION/extras/catch_amalgamated.hpp"
+  stamp_set catch2
+}
+
+install_python() {
+  local req=$ROOT/export_tools/requirements.txt
+  local want; want=$(sha1sum "$req" | cut -c1-12)
+  [ -f "$ROOT/.venv/.req-$want" ] && return 0
+  log "Python virtual environment .venv (requirements: export_tools/requirements.txt)"
+  [ -x "$ROOT/.venv/bin/python" ] || python3 -m venv "$ROOT/.venv"
+  "$ROOT/.venv/bin/pip" install -q -r "$req"
+  "$ROOT/.venv/bin/pip" install -q --no-deps -e "$ROOT/export_tools"
+  rm -f "$ROOT"/.venv/.req-*; touch "$ROOT/.venv/.req-$want"
+}
+
+what=${1:-all}
+case $what in
+  all) install_godot; install_ort; install_glm; install_catch2; install_python ;;
+  runtime) install_godot; install_ort; install_glm ;;
+  *) echo "usage: deps.sh [all|runtime]" >&2; exit 2 ;;
+esac
