@@ -1,0 +1,50 @@
+extends TestCase
+## Creating and freeing many nodes, and loading models again and again, must
+## leave the engine's tracked memory and object count where they were.
+
+const NODES := 5000
+const LOADS := 200
+
+
+func test_create_and_free_5000_nodes_keeps_memory_flat() -> void:
+	_churn(200)  # warm caches (StringNames, method binds) before measuring
+	var memory_before := OS.get_static_memory_usage()
+	var objects_before := Performance.get_monitor(Performance.OBJECT_COUNT)
+	_churn(NODES)
+	var growth := OS.get_static_memory_usage() - memory_before
+	var objects_after := Performance.get_monitor(Performance.OBJECT_COUNT)
+	print("  %d nodes: tracked memory %+d bytes, objects %d -> %d" % [NODES, growth, objects_before, objects_after])
+	check(growth < 8 * 1024, "tracked memory grew by %d bytes over %d nodes" % [growth, NODES])
+	check_eq(objects_after, objects_before, "object count")
+
+
+func test_repeated_model_loads_keep_memory_flat() -> void:
+	var generator := MotionGenerator.new()
+	generator.load_model("res://fixtures/mlp.onnx")
+	var memory_before := OS.get_static_memory_usage()
+	for i in LOADS:
+		generator.load_model("res://fixtures/mlp.onnx")
+		generator.load_model("res://fixtures/missing.onnx")
+	var growth := OS.get_static_memory_usage() - memory_before
+	print("  %d loads: tracked memory %+d bytes" % [LOADS, growth])
+	check(growth < 8 * 1024, "tracked memory grew by %d bytes over %d loads" % [growth, LOADS])
+	generator.free()
+
+
+func _churn(count: int) -> void:
+	var parent := Node3D.new()
+	tree.root.add_child(parent)
+	var skeleton := Skeleton3D.new()
+	skeleton.name = "Skeleton3D"
+	skeleton.add_bone("Hips")
+	parent.add_child(skeleton)
+	for i in count:
+		var generator := MotionGenerator.new()
+		generator.prompt = "walk %d" % i
+		generator.model_path = "res://fixtures/model"
+		parent.add_child(generator)
+		generator.skeleton = NodePath("../Skeleton3D")
+		generator.apply_joint_rotations({"Hips": Quaternion(Vector3.UP, 0.001 * i)})
+		parent.remove_child(generator)
+		generator.free()
+	parent.free()

@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# Runs the engine tests: the real Godot, headless, loading the built extension.
+# Prints "N passed, N failed" (the test project's runner plus the exported-pack
+# check) and exits non-zero on any failure.
+set -uo pipefail
+
+ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
+GODOT=${GODOT:-$ROOT/.deps/bin/godot}
+PROJECT=$ROOT/tests/godot/project
+ADDON=$ROOT/demo_project/addons/ardy
+WORK=$(mktemp -d)
+trap 'rm -rf "$WORK"' EXIT
+
+[ -f "$ADDON/bin/libardy.linux.template_debug.x86_64.so" ] || {
+  echo "tests/godot: the extension is not built (run scripts/test.sh)" >&2; exit 2; }
+
+# The project gets the built addon and the test graphs (both ignored by git).
+rm -rf "$PROJECT/addons" "$PROJECT/fixtures"
+mkdir -p "$PROJECT/addons" "$PROJECT/fixtures/model"
+cp -r "$ADDON" "$PROJECT/addons/"
+rm -rf "$PROJECT/addons/ardy/models"
+cp "$ROOT/tests/data/foundation/mlp.onnx" "$PROJECT/fixtures/mlp.onnx"
+cp "$ROOT/tests/data/foundation/mlp.onnx" "$PROJECT/fixtures/model/mlp.onnx"
+
+godot() { timeout 300 "$GODOT" --headless "$@"; }
+
+# The engine loads an extension only once an import has listed it in
+# .godot/extension_list.cfg; a first import can miss it, so probe and retry.
+loaded=0
+for attempt in 1 2 3; do
+  godot --path "$PROJECT" --import >"$WORK/import.log" 2>&1
+  if godot --path "$PROJECT" -s res://probe.gd >"$WORK/probe.log" 2>&1; then
+    loaded=1; break
+  fi
+  echo "tests/godot: extension not loaded after import $attempt, importing again" >&2
+done
+if [ $loaded -ne 1 ]; then
+  cat "$WORK/import.log" "$WORK/probe.log" >&2
+  echo "0 passed, 1 failed"
+  exit 1
+fi
+
+status=0
+godot --path "$PROJECT" -s res://runner.gd 2>&1 | tee "$WORK/runner.log" || status=1
+
+# An exported pack: the game must load the extension and read from the pack.
+# An exported game carries the extension's libraries beside it, outside the
+# pack; with --main-pack the engine resolves the res:// library paths of
+# ardy.gdextension against the working folder, so they are laid out there.
+mkdir -p "$WORK/export/addons/ardy/bin"
+cp "$ADDON"/bin/*.so* "$WORK/export/addons/ardy/bin/"
+if godot --path "$PROJECT" --export-pack "Linux" "$WORK/export/tests.pck" >"$WORK/export.log" 2>&1 \
+    && [ -f "$WORK/export/tests.pck" ]; then
+  (cd "$WORK/export" && godot --main-pack "$WORK/export/tests.pck") 2>&1 | tee "$WORK/pack.log" || status=1
+else
+  cat "$WORK/export.log" >&2
+  echo "0 passed, 1 failed" >"$WORK/pack.log"
+  status=1
+fi
+
+read -r passed failed < <(grep -hE '^[0-9]+ passed, [0-9]+ failed$' "$WORK/runner.log" "$WORK/pack.log" | awk '{ p += $1; f += $3 } END { print p + 0, f + 0 }')
+if [ "$passed" -eq 0 ] || [ $status -ne 0 ]; then
+  failed=$((failed > 0 ? failed : 1))
+fi
+echo "godot: $passed passed, $failed failed"
+[ "$failed" -eq 0 ]
