@@ -7,13 +7,21 @@ var failed := 0
 
 
 func _ready() -> void:
-	_check(ClassDB.class_exists("MotionGenerator"), "the extension is loaded from the exported pack")
+	_check(
+		ClassDB.class_exists("MotionGenerator"), "the extension is loaded from the exported pack"
+	)
 	_check(FileAccess.file_exists("res://fixtures/mlp.onnx"), "the graph is inside the pack")
-	_check(not FileAccess.file_exists("res://tests/test_memory.gd"), "the export filter left the tests out")
+	_check(
+		not FileAccess.file_exists("res://tests/test_memory.gd"),
+		"the export filter left the tests out"
+	)
 	if ClassDB.class_exists("MotionGenerator"):
 		var generator: Node = ClassDB.instantiate("MotionGenerator")
 		var loaded: bool = generator.call("load_model", "res://fixtures/mlp.onnx")
-		_check(loaded, "load_model reads the graph from the pack: " + str(generator.call("get_last_error")))
+		_check(
+			loaded,
+			"load_model reads the graph from the pack: " + str(generator.call("get_last_error"))
+		)
 		generator.free()
 	print("%d passed, %d failed" % [passed, failed])
 	get_tree().quit(failed)

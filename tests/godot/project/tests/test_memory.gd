@@ -13,7 +13,12 @@ func test_create_and_free_5000_nodes_keeps_memory_flat() -> void:
 	_churn(NODES)
 	var growth := OS.get_static_memory_usage() - memory_before
 	var objects_after := Performance.get_monitor(Performance.OBJECT_COUNT)
-	print("  %d nodes: tracked memory %+d bytes, objects %d -> %d" % [NODES, growth, objects_before, objects_after])
+	print(
+		(
+			"  %d nodes: tracked memory %+d bytes, objects %d -> %d"
+			% [NODES, growth, objects_before, objects_after]
+		)
+	)
 	check(growth < 8 * 1024, "tracked memory grew by %d bytes over %d nodes" % [growth, NODES])
 	check_eq(objects_after, objects_before, "object count")
 

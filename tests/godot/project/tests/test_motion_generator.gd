@@ -63,7 +63,10 @@ func test_properties_round_trip_and_save_to_tscn() -> void:
 	var path := "user://saved_generator.tscn"
 	check_eq(ResourceSaver.save(packed, path), OK, "save the scene")
 	var text := FileAccess.get_file_as_string(path)
-	check(text.contains('[node name="Generator" type="MotionGenerator" parent="."'), "node saved with its type:\n" + text)
+	check(
+		text.contains('[node name="Generator" type="MotionGenerator" parent="."'),
+		"node saved with its type:\n" + text
+	)
 	check(text.contains('model_path = "res://models/custom"'), "model_path saved")
 	check(text.contains('skeleton = NodePath("../Rig")'), "skeleton saved")
 	check(text.contains('prompt = "wave with the left hand\nthen run"'), "prompt saved")
@@ -101,7 +104,9 @@ func test_default_argument_from_typed_gdscript() -> void:
 	var generator: MotionGenerator = MotionGenerator.new()
 	generator.model_path = GRAPH
 	var loaded: bool = generator.load_model()
-	check(loaded, "load_model() with the default path loads model_path: " + generator.get_last_error())
+	check(
+		loaded, "load_model() with the default path loads model_path: " + generator.get_last_error()
+	)
 	var explicit: bool = generator.load_model(MODEL_FOLDER)
 	check(explicit, "load_model(path) with a folder")
 	generator.free()
@@ -152,8 +157,14 @@ func test_bone_moved_through_engine_method() -> void:
 	var bend := Quaternion(Vector3.RIGHT, -0.3)
 	var applied := generator.apply_joint_rotations({"Hips": turn, &"Spine": bend, "Tail": turn})
 	check_eq(applied, 2, "two known bones set")
-	check(skeleton.get_bone_pose_rotation(0).is_equal_approx(turn), "Hips rotated: %s" % skeleton.get_bone_pose_rotation(0))
-	check(skeleton.get_bone_pose_rotation(1).is_equal_approx(bend), "Spine rotated: %s" % skeleton.get_bone_pose_rotation(1))
+	check(
+		skeleton.get_bone_pose_rotation(0).is_equal_approx(turn),
+		"Hips rotated: %s" % skeleton.get_bone_pose_rotation(0)
+	)
+	check(
+		skeleton.get_bone_pose_rotation(1).is_equal_approx(bend),
+		"Spine rotated: %s" % skeleton.get_bone_pose_rotation(1)
+	)
 	check_eq(messages.size(), 1, "the unknown bone is reported")
 	if messages.size() == 1:
 		check(messages[0].contains("Tail"), "the report names the bone: " + messages[0])
@@ -174,8 +185,14 @@ func test_missing_model_gives_clear_error() -> void:
 	var messages: Array[String] = []
 	generator.generation_failed.connect(func(message: String) -> void: messages.append(message))
 	check_eq(generator.load_model("res://fixtures/nowhere/graph.onnx"), false, "missing file")
-	check(generator.get_last_error().contains("res://fixtures/nowhere/graph.onnx"), generator.get_last_error())
-	check(generator.get_last_error().contains("not found"), "says not found: " + generator.get_last_error())
+	check(
+		generator.get_last_error().contains("res://fixtures/nowhere/graph.onnx"),
+		generator.get_last_error()
+	)
+	check(
+		generator.get_last_error().contains("not found"),
+		"says not found: " + generator.get_last_error()
+	)
 	check_eq(generator.load_model("res://fixtures/no_such_folder"), false, "missing folder")
 	check(generator.get_last_error().contains("no_such_folder"), generator.get_last_error())
 	check_eq(generator.load_model(""), false, "no path at all")
@@ -197,7 +214,10 @@ func test_malformed_model_gives_clear_error_and_keeps_previous() -> void:
 	generator.generation_failed.connect(func(message: String) -> void: messages.append(message))
 
 	check_eq(generator.load_model("user://malformed.onnx"), false, "malformed graph refused")
-	check(generator.get_last_error().contains("malformed.onnx"), "names the file: " + generator.get_last_error())
+	check(
+		generator.get_last_error().contains("malformed.onnx"),
+		"names the file: " + generator.get_last_error()
+	)
 	check_eq(generator.load_model("user://empty.onnx"), false, "empty graph refused")
 	check(generator.get_last_error().contains("empty"), "says empty: " + generator.get_last_error())
 	check_eq(messages.size(), 2, "a signal per failure")
