@@ -161,7 +161,29 @@ install_python() {
   rm -f "$ROOT"/.venv/.req-*; touch "$ROOT/.venv/.req-$want"
 }
 
+# Build tools from the machine's own Debian (present on most developer
+# machines; installed when missing and we are root, else named).
+install_host_tools() {
+  local missing=()
+  command -v cmake >/dev/null || missing+=(cmake)
+  command -v ninja >/dev/null || missing+=(ninja-build)
+  command -v g++ >/dev/null || missing+=(g++)
+  command -v xz >/dev/null || missing+=(xz-utils)
+  command -v python3 >/dev/null || missing+=(python3)
+  python3 -c 'import ensurepip, venv' 2>/dev/null || missing+=(python3-venv)
+  python3 -m pip --version >/dev/null 2>&1 || missing+=(python3-pip)
+  [ ${#missing[@]} -eq 0 ] && return 0
+  if [ "$(id -u)" -eq 0 ]; then
+    log "installing build tools: ${missing[*]}"
+    apt-get update -q >/dev/null && apt-get install -y -q --no-install-recommends "${missing[@]}" >/dev/null
+  else
+    echo "deps: missing build tools; run: sudo apt-get install ${missing[*]}" >&2
+    exit 1
+  fi
+}
+
 what=${1:-all}
+install_host_tools
 case $what in
   all) install_godot; install_ort; install_glm; install_catch2; install_python ;;
   runtime) install_godot; install_ort; install_glm ;;

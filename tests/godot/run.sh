@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs the engine tests: the real Godot, headless, loading the built extension.
-# Prints "N passed, N failed" (the test project's runner plus the exported-pack
-# check) and exits non-zero on any failure.
+# Prints "N passed, N failed" (the test project's runner, the editor-help
+# check and the exported-pack check) and exits non-zero on any failure.
 set -uo pipefail
 
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
@@ -43,6 +43,16 @@ fi
 status=0
 godot --path "$PROJECT" -s res://runner.gd 2>&1 | tee "$WORK/runner.log" || status=1
 
+# The editor help must match what the engine registered.
+mkdir -p "$WORK/docs"
+if godot --path "$PROJECT" --doctool "$WORK/docs" --gdextension-docs >"$WORK/doctool.log" 2>&1; then
+  python3 "$ROOT/tests/godot/check_docs.py" "$WORK/docs/doc_classes" "$ROOT/doc_classes" 2>&1 | tee "$WORK/docs.log" || status=1
+else
+  cat "$WORK/doctool.log" >&2
+  echo "0 passed, 1 failed" >"$WORK/docs.log"
+  status=1
+fi
+
 # An exported pack: the game must load the extension and read from the pack.
 # An exported game carries the extension's libraries beside it, outside the
 # pack; with --main-pack the engine resolves the res:// library paths of
@@ -58,7 +68,7 @@ else
   status=1
 fi
 
-read -r passed failed < <(grep -hE '^[0-9]+ passed, [0-9]+ failed$' "$WORK/runner.log" "$WORK/pack.log" | awk '{ p += $1; f += $3 } END { print p + 0, f + 0 }')
+read -r passed failed < <(grep -hE '^[0-9]+ passed, [0-9]+ failed$' "$WORK/runner.log" "$WORK/docs.log" "$WORK/pack.log" | awk '{ p += $1; f += $3 } END { print p + 0, f + 0 }')
 if [ "$passed" -eq 0 ] || [ $status -ne 0 ]; then
   failed=$((failed > 0 ? failed : 1))
 fi
