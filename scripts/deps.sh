@@ -135,6 +135,19 @@ install_glm() {
   stamp_set glm
 }
 
+install_json() {
+  stamp_ok json && return 0
+  apt_setup
+  log "nlohmann/json headers (Debian bookworm)"
+  (cd "$CACHE/debs" && private_apt download -t bookworm nlohmann-json3-dev >/dev/null)
+  local deb; deb=$(ls -t "$CACHE"/debs/nlohmann-json3-dev_3*.deb | head -1)
+  rm -rf "$DEPS/json-tmp"; dpkg-deb -x "$deb" "$DEPS/json-tmp"
+  rm -rf "$DEPS/json"; mkdir -p "$DEPS/json/include"
+  cp -r "$DEPS/json-tmp/usr/include/nlohmann" "$DEPS/json/include/"
+  rm -rf "$DEPS/json-tmp"
+  stamp_set json
+}
+
 install_catch2() {
   stamp_ok catch2 && return 0
   apt_setup
@@ -185,7 +198,7 @@ install_host_tools() {
 what=${1:-all}
 install_host_tools
 case $what in
-  all) install_godot; install_ort; install_glm; install_catch2; install_python ;;
-  runtime) install_godot; install_ort; install_glm ;;
+  all) install_godot; install_ort; install_glm; install_json; install_catch2; install_python ;;
+  runtime) install_godot; install_ort; install_glm; install_json ;;
   *) echo "usage: deps.sh [all|runtime]" >&2; exit 2 ;;
 esac
