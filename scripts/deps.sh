@@ -76,6 +76,7 @@ install_godot() {
   if [ -n "${GODOT:-}" ]; then
     log "using GODOT=$GODOT"
     ln -sf "$GODOT" "$DEPS/bin/godot"
+    rm -f "$DEPS/.stamp-godot"  # unsetting GODOT later reinstalls the wrapper
     return 0
   fi
   stamp_ok godot && return 0
@@ -100,6 +101,7 @@ install_ort() {
   if [ -n "${ORT_ROOT:-}" ]; then
     log "using ORT_ROOT=$ORT_ROOT"
     rm -rf "$DEPS/ort"; ln -sfn "$ORT_ROOT" "$DEPS/ort"
+    rm -f "$DEPS/.stamp-ort"
     return 0
   fi
   stamp_ok ort && return 0
