@@ -8,6 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ardy_export import fixtures
+from ardy_export.text.cli import add_text_commands
 
 
 def _make_fixtures(args: argparse.Namespace) -> int:
@@ -37,6 +38,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="output folder (default: %(default)s, relative to the current directory)",
     )
     make_fixtures.set_defaults(handler=_make_fixtures)
+    add_text_commands(commands)
     return parser
 
 
