@@ -8,6 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ardy_export import fixtures
+from ardy_export.data.cli import add_data_commands
 from ardy_export.text.cli import add_text_commands
 
 
@@ -39,6 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     make_fixtures.set_defaults(handler=_make_fixtures)
     add_text_commands(commands)
+    add_data_commands(commands)
     return parser
 
 

@@ -1,0 +1,117 @@
+"""Train / test split by whole (dataset, content, style) groups."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from ardy_export.data.labels import mirror_content
+from ardy_export.data.split import (
+    SPLIT_PATH,
+    check_split,
+    load_split,
+    make_split,
+    save_split,
+    split_of,
+)
+from test_data_common import REPO_ROOT, archive_groups
+
+CONTENTS = [
+    "walk",
+    "run",
+    "walk-turn-left",
+    "walk-turn-right",
+    "wave-left-hand",
+    "wave-right-hand",
+    "wave-both-hands",
+    "jump",
+]
+STYLES = ["normal", "happy", "sad", "old", "proud", "tired"]
+
+
+def synthetic_groups() -> dict[tuple[str, str, str], int]:
+    groups = {}
+    for d in ("dataset-a", "dataset-b"):
+        for i, c in enumerate(CONTENTS):
+            for k, s in enumerate(STYLES):
+                if (i + k) % 5 != 0 or d == "dataset-b":  # leave some combinations out
+                    groups[(d, c, s)] = 100 + 13 * i + 7 * k
+    return groups
+
+
+def test_split_holds_out_whole_groups_and_covers_labels_in_training() -> None:
+    groups = synthetic_groups()
+    held = make_split(groups, seed=3, test_fraction=0.2, min_train_groups=2)
+    held_set = set(held)
+    assert held == sorted(held) and len(held) == len(held_set)
+    assert held_set <= set(groups)
+    assert check_split(groups, held_set) == []
+    for dataset in ("dataset-a", "dataset-b"):
+        mine = {g: n for g, n in groups.items() if g[0] == dataset}
+        train = [g for g in mine if g not in held_set]
+        test = [g for g in mine if g in held_set]
+        assert test, dataset
+        # every content and style keeps >= 2 training groups; the test combinations are new
+        for axis in (1, 2):
+            for label in {g[axis] for g in mine}:
+                assert sum(g[axis] == label for g in train) >= 2
+        fraction = sum(mine[g] for g in test) / sum(mine.values())
+        assert 0.18 <= fraction < 0.35
+        # a held-out group and its mirror image go together
+        for g in test:
+            mirror = (g[0], mirror_content(g[1]), g[2])
+            assert mirror not in mine or mirror in held_set
+    assert split_of(held[0], held_set) == "test"
+    assert split_of(("dataset-x", "walk", "normal"), held_set) == "train"
+
+
+def test_split_is_deterministic(tmp_path: Path) -> None:
+    groups = synthetic_groups()
+    first = make_split(groups, seed=11, test_fraction=0.15)
+    assert make_split(dict(reversed(list(groups.items()))), seed=11, test_fraction=0.15) == first
+    assert make_split(groups, seed=12, test_fraction=0.15) != first
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    save_split(first, a, seed=11, test_fraction=0.15, min_train_groups=2)
+    save_split(list(reversed(first)), b, seed=11, test_fraction=0.15, min_train_groups=2)
+    assert a.read_bytes() == b.read_bytes()
+    assert load_split(a) == set(first)
+
+
+def test_committed_split_is_valid_for_the_real_data() -> None:
+    data = json.loads(SPLIT_PATH.read_text(encoding="utf-8"))
+    held = load_split()
+    assert len(held) == len(data["held_out"]) > 0
+    groups = set(archive_groups("dataset-1")) | set(archive_groups("dataset-2"))
+    assert held <= groups, sorted(held - groups)
+    assert check_split(groups, held) == []
+    for dataset in ("dataset-1", "dataset-2"):
+        assert any(g[0] == dataset for g in held)
+
+
+def test_committed_split_regenerates_identically(tmp_path: Path) -> None:
+    """Needs the prepared dataset (ardy-export data prepare); skipped without it."""
+    index_path = REPO_ROOT / "data" / "processed" / "index.json"
+    if not index_path.is_file():
+        pytest.skip("data/processed/index.json not found (run ardy-export data prepare)")
+    from ardy_export.data.config import load_data_config
+    from ardy_export.data.dataset import group_frames
+
+    config = load_data_config()
+    index = json.loads(index_path.read_text(encoding="utf-8"))["clips"]
+    held = make_split(
+        group_frames(index),
+        config.split_seed,
+        config.split_test_fraction,
+        config.split_min_train_groups,
+    )
+    out = tmp_path / "split.json"
+    save_split(
+        held,
+        out,
+        seed=config.split_seed,
+        test_fraction=config.split_test_fraction,
+        min_train_groups=config.split_min_train_groups,
+    )
+    assert out.read_bytes() == SPLIT_PATH.read_bytes()
