@@ -9,6 +9,7 @@ import warnings
 from pathlib import Path
 from typing import Any
 
+from ardy_export.data.compact import pack_compact, unpack_compact
 from ardy_export.data.config import DataConfig, load_data_config
 
 
@@ -200,6 +201,31 @@ def _export_bvh(args: argparse.Namespace) -> int:
     return 0
 
 
+def _pack_compact(args: argparse.Namespace) -> int:
+    config = load_data_config(args.config)
+    processed = Path(args.processed or config.out)
+    try:
+        sizes = pack_compact(processed, args.out)
+    except FileNotFoundError as error:
+        print(f"ardy-export data pack-compact: {error} (run 'data prepare' first)", file=sys.stderr)
+        return 1
+    print(
+        f"wrote {args.out}: {sizes['compact_bytes'] / 1e6:.1f} MB "
+        f"(clips.npz is {sizes['clips_npz_bytes'] / 1e6:.1f} MB)"
+    )
+    return 0
+
+
+def _unpack_compact(args: argparse.Namespace) -> int:
+    try:
+        frames = unpack_compact(args.compact, args.out)
+    except FileNotFoundError as error:
+        print(f"ardy-export data unpack-compact: {error}", file=sys.stderr)
+        return 1
+    print(f"rebuilt {frames} frames into {args.out}")
+    return 0
+
+
 def add_data_commands(commands: argparse._SubParsersAction) -> None:
     """Register the ``data`` command group on the top-level subparsers."""
     data = commands.add_parser(
@@ -279,3 +305,21 @@ def add_data_commands(commands: argparse._SubParsersAction) -> None:
     )
     report.add_argument("--seed", type=int, default=0, help="random seed (default: %(default)s)")
     report.set_defaults(handler=_stitch_report)
+
+    pack = sub.add_parser(
+        "pack-compact",
+        help="a compact copy of the prepared dataset (about a sixth) to move to a training machine",
+    )
+    common(pack)
+    pack.add_argument("--processed", help="prepared dataset folder (default: config out)")
+    pack.add_argument("--out", default="data/compact", help="output folder (default: %(default)s)")
+    pack.set_defaults(handler=_pack_compact)
+
+    unpack = sub.add_parser(
+        "unpack-compact", help="rebuild a prepared dataset (clips.npz, index) from a compact copy"
+    )
+    unpack.add_argument("compact", help="folder written by pack-compact")
+    unpack.add_argument(
+        "--out", default="data/processed", help="output folder (default: %(default)s)"
+    )
+    unpack.set_defaults(handler=_unpack_compact)
