@@ -9,19 +9,13 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
-#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
-namespace ardy {
+#include "error.hpp"  // ardy::Error, e.g. "denoiser.onnx: not a valid ONNX model (...)"
 
-// The runtime library's error type. Messages say what was wrong and where,
-// e.g. "denoiser.onnx: not a valid ONNX model (...ONNX Runtime message...)".
-class Error : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
+namespace ardy {
 
 // One ONNX Runtime environment (logging level warning, log id "ardy"), shared
 // by every session through std::shared_ptr so it outlives all of them.

@@ -10,8 +10,8 @@ Counts as one test in the engine suite.
 from __future__ import annotations
 
 import sys
-import xml.etree.ElementTree as ElementTree
 from pathlib import Path
+from xml.etree import ElementTree
 
 
 def signature(element: ElementTree.Element) -> str:
