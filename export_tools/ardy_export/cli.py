@@ -10,6 +10,7 @@ from pathlib import Path
 from ardy_export import fixtures
 from ardy_export.data.cli import add_data_commands
 from ardy_export.text.cli import add_text_commands
+from ardy_export.training.cli import add_training_commands
 
 
 def _make_fixtures(args: argparse.Namespace) -> int:
@@ -41,6 +42,7 @@ def build_parser() -> argparse.ArgumentParser:
     make_fixtures.set_defaults(handler=_make_fixtures)
     add_text_commands(commands)
     add_data_commands(commands)
+    add_training_commands(commands)
     return parser
 
 

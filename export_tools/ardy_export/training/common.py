@@ -1,0 +1,264 @@
+"""Shared training machinery: run configs, devices and DDP, schedules, EMA, checkpoints, logs."""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import os
+import queue
+import random
+import threading
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+import torch.distributed as dist
+import yaml
+from torch import nn
+
+
+def load_config(path: str | Path) -> dict[str, Any]:
+    """A run config (YAML mapping)."""
+    p = Path(path)
+    with p.open(encoding="utf-8") as handle:
+        raw = yaml.safe_load(handle) or {}
+    if not isinstance(raw, dict):
+        raise ValueError(f"{p}: a run config must be a mapping at the top level")
+    raw.setdefault("_config_path", str(p.resolve()))
+    return raw
+
+
+def resolve_path(value: str | Path, config: dict[str, Any]) -> Path:
+    """Relative paths in a config are relative to the current directory (the repo root when
+    the commands are run from it, as the README does)."""
+    del config
+    return Path(value).expanduser()
+
+
+@dataclass
+class TrainSettings:
+    steps: int = 1000
+    batch_size: int = 32
+    lr: float = 3e-4
+    weight_decay: float = 0.01
+    beta1: float = 0.9
+    beta2: float = 0.99
+    warmup_steps: int = 100
+    min_lr_ratio: float = 0.1
+    grad_clip: float = 1.0
+    checkpoint_every: int = 500
+    keep_every: int = 0  # also keep ckpt_<step>.pt every this many steps (0: only latest)
+    log_every: int = 10
+    ema_decay: float = 0.999
+    threads: int = 0  # torch intra-op threads on the CPU (0: torch's default)
+    prefetch: int = 0  # batches built ahead on a background thread (0: none; GPU runs: 2-4)
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def from_dict(cls, values: dict[str, Any]) -> TrainSettings:
+        known = {k: v for k, v in values.items() if k in cls.__dataclass_fields__}
+        extra = {k: v for k, v in values.items() if k not in cls.__dataclass_fields__}
+        settings = cls(**known)
+        settings.extra = extra
+        return settings
+
+
+@dataclass
+class RunContext:
+    device: torch.device
+    rank: int = 0
+    world_size: int = 1
+    distributed: bool = False
+
+    @property
+    def is_main(self) -> bool:
+        return self.rank == 0
+
+
+def setup_run(device: str = "auto") -> RunContext:
+    """CPU by default, CUDA when present (or asked), DDP when launched by torchrun."""
+    world = int(os.environ.get("WORLD_SIZE", "1"))
+    if device == "auto":
+        device = "cuda" if torch.cuda.is_available() else "cpu"
+    if device == "cuda" and not torch.cuda.is_available():
+        raise RuntimeError("device: cuda was asked for but no CUDA device is available")
+    if world > 1:
+        rank = int(os.environ["RANK"])
+        local = int(os.environ.get("LOCAL_RANK", "0"))
+        backend = "nccl" if device == "cuda" else "gloo"
+        if not dist.is_initialized():
+            dist.init_process_group(backend=backend)
+        dev = torch.device(f"cuda:{local}") if device == "cuda" else torch.device("cpu")
+        if device == "cuda":
+            torch.cuda.set_device(dev)
+        return RunContext(dev, rank, world, True)
+    return RunContext(torch.device("cuda" if device == "cuda" else "cpu"))
+
+
+def teardown_run(ctx: RunContext) -> None:
+    if ctx.distributed and dist.is_initialized():
+        dist.destroy_process_group()
+
+
+def seed_everything(seed: int) -> None:
+    random.seed(seed)
+    np.random.seed(seed)  # noqa: NPY002 - libraries that use the global state
+    torch.manual_seed(seed)
+
+
+def warmup_cosine(step: int, settings: TrainSettings) -> float:
+    """LR multiplier: linear warm-up, then cosine from 1 to ``min_lr_ratio``."""
+    if step < settings.warmup_steps:
+        return (step + 1) / max(1, settings.warmup_steps)
+    span = max(1, settings.steps - settings.warmup_steps)
+    progress = min(1.0, (step - settings.warmup_steps) / span)
+    return settings.min_lr_ratio + (1.0 - settings.min_lr_ratio) * 0.5 * (
+        1.0 + math.cos(math.pi * progress)
+    )
+
+
+def make_optimizer(
+    model: nn.Module, settings: TrainSettings
+) -> tuple[torch.optim.Optimizer, torch.optim.lr_scheduler.LambdaLR]:
+    decay, no_decay = [], []
+    for name, param in model.named_parameters():
+        if not param.requires_grad:
+            continue
+        (no_decay if param.dim() < 2 or "embedding" in name else decay).append(param)
+    opt = torch.optim.AdamW(
+        [
+            {"params": decay, "weight_decay": settings.weight_decay},
+            {"params": no_decay, "weight_decay": 0.0},
+        ],
+        lr=settings.lr,
+        betas=(settings.beta1, settings.beta2),
+    )
+    sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda s: warmup_cosine(s, settings))
+    return opt, sched
+
+
+class EMA:
+    """Exponential moving average of a model's parameters and buffers."""
+
+    def __init__(self, model: nn.Module, decay: float) -> None:
+        self.decay = decay
+        self.model = copy.deepcopy(model).eval()
+        for p in self.model.parameters():
+            p.requires_grad_(False)
+        self.updates = 0
+
+    @torch.no_grad()
+    def update(self, model: nn.Module) -> None:
+        self.updates += 1
+        d = min(self.decay, (1.0 + self.updates) / (10.0 + self.updates))
+        ema_params = list(self.model.parameters())
+        params = [p.detach() for p in model.parameters()]
+        torch._foreach_lerp_(ema_params, params, 1.0 - d)
+        for ema_b, b in zip(self.model.buffers(), model.buffers(), strict=True):
+            ema_b.copy_(b)
+
+    def state_dict(self) -> dict[str, Any]:
+        return self.model.state_dict()
+
+
+def unwrap(model: nn.Module) -> nn.Module:
+    return model.module if hasattr(model, "module") else model
+
+
+def save_checkpoint(path: Path, state: dict[str, Any]) -> None:
+    """Write atomically (temporary file, then rename)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    torch.save(state, tmp)
+    tmp.replace(path)
+
+
+def rng_state(rng: np.random.Generator, gen: torch.Generator) -> dict[str, Any]:
+    return {
+        "numpy": rng.bit_generator.state,
+        "torch": gen.get_state(),
+        "torch_global": torch.get_rng_state(),
+    }
+
+
+def restore_rng(state: dict[str, Any], rng: np.random.Generator, gen: torch.Generator) -> None:
+    rng.bit_generator.state = state["numpy"]
+    gen.set_state(state["torch"])
+    torch.set_rng_state(state["torch_global"])
+
+
+class MetricsLog:
+    """Append-only JSONL of losses per logged step (``metrics.jsonl`` in the run folder)."""
+
+    def __init__(self, path: Path, enabled: bool) -> None:
+        self.path = path
+        self.enabled = enabled
+        self.start = time.perf_counter()
+        if enabled:
+            path.parent.mkdir(parents=True, exist_ok=True)
+
+    def write(self, step: int, values: dict[str, float]) -> None:
+        if not self.enabled:
+            return
+        row = {"step": step, "time_s": round(time.perf_counter() - self.start, 3)}
+        row.update({k: float(v) for k, v in values.items()})
+        with self.path.open("a", encoding="utf-8") as handle:
+            handle.write(json.dumps(row) + "\n")
+
+
+def average_parts(rows: list[dict[str, float]]) -> dict[str, float]:
+    keys = {k for r in rows for k in r}
+    return {k: float(np.mean([r[k] for r in rows if k in r])) for k in sorted(keys)}
+
+
+class Prefetcher:
+    """Builds batches ahead on one background thread (numpy releases the GIL for most of the
+    work), so a GPU step and the next batch overlap. ``depth = 0`` builds them inline.
+
+    The batch order is the same as without prefetching; a checkpoint's RNG state is then
+    ``depth`` batches ahead, so a resumed run draws different (equally random) batches.
+    """
+
+    def __init__(self, make: Callable[[], dict[str, Any]], depth: int) -> None:
+        self.make = make
+        self.depth = depth
+        self.stop = threading.Event()
+        self.queue: queue.Queue[Any] = queue.Queue(maxsize=max(1, depth))
+        self.thread: threading.Thread | None = None
+        if depth > 0:
+            self.thread = threading.Thread(target=self._run, daemon=True)
+            self.thread.start()
+
+    def _run(self) -> None:
+        try:
+            while not self.stop.is_set():
+                item = self.make()
+                while not self.stop.is_set():
+                    try:
+                        self.queue.put(item, timeout=0.1)
+                        break
+                    except queue.Full:
+                        continue
+        except BaseException as error:  # handed to the consumer
+            self.queue.put(error)
+
+    def __iter__(self) -> Iterator[dict[str, Any]]:
+        return self
+
+    def __next__(self) -> dict[str, Any]:
+        if self.thread is None:
+            return self.make()
+        item = self.queue.get()
+        if isinstance(item, BaseException):
+            raise item
+        return item
+
+    def close(self) -> None:
+        self.stop.set()
+        if self.thread is not None:
+            self.thread.join(timeout=5.0)

@@ -1,0 +1,273 @@
+"""``ardy-export train denoiser``: train the two-stage denoiser on a frozen tokenizer."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from torch.nn.parallel import DistributedDataParallel
+from tqdm import tqdm
+
+from ardy_export.diffusion import DiffusionSchedule
+from ardy_export.models import layout as L
+from ardy_export.models.denoiser import Denoiser, DenoiserConfig
+from ardy_export.models.graphs import DecoderGraph
+from ardy_export.models.tokenizer import BodyTokenizer
+from ardy_export.training import adapters
+from ardy_export.training.batches import (
+    EncodedSequence,
+    WindowSamplingConfig,
+    denoiser_batch,
+)
+from ardy_export.training.common import (
+    EMA,
+    MetricsLog,
+    Prefetcher,
+    RunContext,
+    TrainSettings,
+    average_parts,
+    load_config,
+    make_optimizer,
+    restore_rng,
+    rng_state,
+    save_checkpoint,
+    seed_everything,
+    setup_run,
+    teardown_run,
+    unwrap,
+)
+from ardy_export.training.constraint_sampling import ConstraintSamplingConfig
+from ardy_export.training.losses import LossContext, denoiser_loss
+from ardy_export.training.tokenizer_train import (
+    TrainResult,
+    load_tokenizer,
+    prepare_sequences,
+    skeleton_dict,
+)
+
+
+@torch.no_grad()
+def encode_sequences(
+    tokenizer: BodyTokenizer,
+    seqs: list[adapters.TrainSequence],
+    mean: np.ndarray,
+    std: np.ndarray,
+    yaw_variants: int,
+    rng: np.random.Generator,
+    device: torch.device,
+) -> tuple[list[EncodedSequence], np.ndarray, np.ndarray]:
+    """Precompute the latent tokens of every sequence under ``yaw_variants`` random yaw
+    rotations with the frozen encoder; returns the encoded sequences (latents normalized)
+    and the latent statistics (mean, std, clamped below at 1e-2)."""
+    p = tokenizer.config.patch
+    out: list[tuple[np.ndarray, np.ndarray, list[Any]]] = []
+    tokenizer = tokenizer.to(device)
+    for s in seqs:
+        n = (len(s.features) // p) * p
+        if n < p:
+            continue
+        for _ in range(max(1, yaw_variants)):
+            f = adapters.rotate_yaw(s.features[:n], float(rng.uniform(-np.pi, np.pi)))
+            body = torch.from_numpy(((f - mean) / std)[None, :, L.BODY_SLICE].astype(np.float32))
+            codes = tokenizer.encode(body.to(device))[0].cpu().numpy()
+            out.append((f.astype(np.float32), codes, s.segments))
+    allc = np.concatenate([c for _, c, _ in out])
+    lmean = allc.mean(0).astype(np.float32)
+    lstd = np.maximum(allc.std(0), 1e-2).astype(np.float32)
+    encoded = [
+        EncodedSequence(f, ((c - lmean) / lstd).astype(np.float32), segs) for f, c, segs in out
+    ]
+    return encoded, lmean, lstd
+
+
+def train_denoiser(
+    config: dict[str, Any], resume: bool = False, progress: bool = True
+) -> TrainResult:
+    settings = TrainSettings.from_dict(config.get("train", {}))
+    ctx = setup_run(str(config.get("device", "auto")))
+    try:
+        return _train(config, settings, ctx, resume, progress)
+    finally:
+        teardown_run(ctx)
+
+
+def _train(
+    config: dict[str, Any],
+    settings: TrainSettings,
+    ctx: RunContext,
+    resume: bool,
+    progress: bool,
+) -> TrainResult:
+    seed = int(config.get("seed", 0))
+    seed_everything(seed + ctx.rank)
+    if settings.threads:
+        torch.set_num_threads(settings.threads)
+    run_dir = Path(config.get("run_dir", "runs/denoiser"))
+    latest = run_dir / "latest.pt"
+    tok_path = Path(config["tokenizer_checkpoint"])
+    tokenizer, tok_ckpt = load_tokenizer(tok_path)
+    mean = np.asarray(tok_ckpt["stats"]["mean"], np.float32)
+    std = np.asarray(tok_ckpt["stats"]["std"], np.float32)
+    data_cfg = dict(config.get("data", tok_ckpt["run_config"].get("data", {})))
+    seqs = prepare_sequences(data_cfg, seed)
+    skeleton = adapters.skeleton_for(data_cfg)
+    encoded, lmean, lstd = encode_sequences(
+        tokenizer,
+        seqs,
+        mean,
+        std,
+        int(settings.extra.get("yaw_variants", 8)),
+        np.random.default_rng(seed + 11),
+        ctx.device,
+    )
+    ckpt: dict[str, Any] | None = None
+    if resume and latest.is_file():
+        ckpt = torch.load(latest, map_location="cpu", weights_only=False)
+        lmean = np.asarray(ckpt["latent_stats"]["mean"], np.float32)
+        lstd = np.asarray(ckpt["latent_stats"]["std"], np.float32)
+    model_cfg = dict(config.get("model", {}))
+    model_cfg.update(
+        feature_dim=L.FEATURE_SIZE,
+        root_dim=L.ROOT_DIM,
+        patch=tokenizer.config.patch,
+        latent_dim=tokenizer.config.latent_dim,
+        text_dim=adapters.TEXT_DIM,
+    )
+    dcfg = DenoiserConfig.from_dict(model_cfg)
+    schedule = DiffusionSchedule.cosine(dcfg.diffusion_steps)
+    model = Denoiser(dcfg)
+    ema = EMA(model, settings.ema_decay)
+    if ckpt is not None:
+        model.load_state_dict(ckpt["model"])
+        ema.model.load_state_dict(ckpt["ema"])
+        ema.updates = int(ckpt.get("ema_updates", ckpt["step"]))
+    model.to(ctx.device)
+    ema.model.to(ctx.device)
+    decoder = (
+        DecoderGraph(tokenizer, torch.from_numpy(lmean), torch.from_numpy(lstd))
+        .to(ctx.device)
+        .eval()
+    )
+    for p in decoder.parameters():
+        p.requires_grad_(False)
+    net: torch.nn.Module = model
+    if ctx.distributed:
+        net = DistributedDataParallel(
+            model, device_ids=[ctx.device] if ctx.device.type == "cuda" else None
+        )
+    opt, sched = make_optimizer(model, settings)
+    rng = np.random.default_rng(seed + 1000 * ctx.rank + 1)
+    gen = torch.Generator().manual_seed(seed + 1000 * ctx.rank + 2)
+    start = 0
+    if ckpt is not None:
+        opt.load_state_dict(ckpt["optimizer"])
+        sched.load_state_dict(ckpt["scheduler"])
+        start = int(ckpt["step"])
+        if ckpt.get("rng", {}).get(str(ctx.rank)) is not None:
+            restore_rng(ckpt["rng"][str(ctx.rank)], rng, gen)
+    keys = [key for e in encoded for _, _, key in e.segments]
+    text_cfg = dict(config.get("text", {}))
+    bank = adapters.TextBank(
+        keys,
+        mode=str(text_cfg.get("mode", "encoder")),
+        sentences=int(text_cfg.get("sentences_per_label", 16)),
+        embedding_cache=text_cfg.get("embedding_cache"),
+    )
+    skeleton_t = None if skeleton is None else torch.from_numpy(skeleton.offsets)
+    loss_ctx = LossContext(
+        torch.from_numpy(mean),
+        torch.from_numpy(std),
+        skeleton_t,
+        skeleton.parents if skeleton else L.PARENTS,
+        tokenizer.config.fps,
+    ).to(ctx.device)
+    weights = {k: float(v) for k, v in config.get("loss", {}).items()}
+    for k in ("hybrid", "decoded", "goal", "fk"):
+        weights.setdefault(k, 1.0)
+    csample = ConstraintSamplingConfig.from_dict(dict(config.get("constraints", {})))
+    wsample = WindowSamplingConfig(
+        text_drop=float(settings.extra.get("text_drop", 0.1)),
+        constraint_drop=float(settings.extra.get("constraint_drop", 0.1)),
+    )
+    sampling_defaults = {"steps": 4, "w_text": 2.0, "w_con": 2.0}
+    sampling_defaults.update(config.get("sampling", {}))
+    log = MetricsLog(run_dir / "metrics.jsonl", ctx.is_main)
+
+    def state(step: int) -> dict[str, Any]:
+        return {
+            "kind": "denoiser",
+            "step": step,
+            "model": unwrap(net).state_dict(),
+            "ema": ema.state_dict(),
+            "ema_updates": ema.updates,
+            "denoiser_config": dcfg.to_dict(),
+            "tokenizer_config": tokenizer.config.to_dict(),
+            "tokenizer": tokenizer.state_dict(),
+            "tokenizer_checkpoint": str(tok_path),
+            "stats": {"mean": mean.tolist(), "std": std.tolist()},
+            "latent_stats": {"mean": lmean.tolist(), "std": lstd.tolist()},
+            "alphas_cumprod": schedule.alphas_cumprod.tolist(),
+            "skeleton": skeleton_dict(skeleton),
+            "sampling_defaults": sampling_defaults,
+            "run_config": {k: v for k, v in config.items() if not k.startswith("_")},
+            "optimizer": opt.state_dict(),
+            "scheduler": sched.state_dict(),
+            "rng": {str(ctx.rank): rng_state(rng, gen)},
+        }
+
+    history: list[dict[str, float]] = []
+    window: list[dict[str, float]] = []
+    bar = tqdm(
+        range(start, settings.steps),
+        initial=start,
+        total=settings.steps,
+        disable=not (progress and ctx.is_main),
+        desc="denoiser",
+        dynamic_ncols=True,
+    )
+    t0 = time.perf_counter()
+    net.train()
+
+    def make_batch() -> dict[str, torch.Tensor]:
+        return denoiser_batch(
+            encoded, rng, settings.batch_size, dcfg, mean, std, bank, csample, wsample
+        )
+
+    batches = Prefetcher(make_batch, settings.prefetch)
+    for step in bar:
+        batch = {k: v.to(ctx.device) for k, v in next(batches).items()}
+        loss, parts = denoiser_loss(net, decoder, schedule, batch, loss_ctx, weights, gen)
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        if settings.grad_clip > 0:
+            torch.nn.utils.clip_grad_norm_(model.parameters(), settings.grad_clip)
+        opt.step()
+        sched.step()
+        ema.update(model)
+        window.append(parts)
+        done = step + 1
+        if done % settings.log_every == 0 or done == settings.steps:
+            row = average_parts(window)
+            row["lr"] = sched.get_last_lr()[0]
+            window = []
+            history.append({"step": float(done), **row})
+            log.write(done, row)
+            bar.set_postfix({k: f"{v:.4f}" for k, v in row.items() if k != "lr"})
+        if ctx.is_main and (done % settings.checkpoint_every == 0 or done == settings.steps):
+            save_checkpoint(latest, state(done))
+            if settings.keep_every and done % settings.keep_every == 0:
+                save_checkpoint(run_dir / f"ckpt_{done:08d}.pt", state(done))
+    batches.close()
+    elapsed = time.perf_counter() - t0
+    final = run_dir / "final.pt"
+    if ctx.is_main:
+        save_checkpoint(final, state(settings.steps))
+    steps_run = settings.steps - start
+    return TrainResult(run_dir, final, history, steps_run / elapsed if elapsed > 0 else 0.0)
+
+
+def main_from_file(path: str | Path, resume: bool) -> TrainResult:
+    return train_denoiser(load_config(path), resume=resume)

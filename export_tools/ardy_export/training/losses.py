@@ -1,0 +1,171 @@
+"""Training losses of the tokenizer and the denoiser (paper eqs. 6-11)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+
+from ardy_export.diffusion import DiffusionSchedule
+from ardy_export.models import layout as L
+from ardy_export.models.denoiser import Denoiser
+from ardy_export.models.kinematics import fk_world, rot6d_to_matrix
+from ardy_export.models.tokenizer import BodyTokenizer
+
+
+@dataclass
+class LossContext:
+    """Normalization statistics and skeleton as tensors on the training device."""
+
+    mean: Tensor  # [M]
+    std: Tensor  # [M]
+    offsets: Tensor | None  # [J, 3]; None disables the FK terms
+    parents: Sequence[int]
+    fps: float = L.FPS
+
+    def to(self, device: torch.device) -> LossContext:
+        return LossContext(
+            self.mean.to(device),
+            self.std.to(device),
+            None if self.offsets is None else self.offsets.to(device),
+            self.parents,
+            self.fps,
+        )
+
+
+def _planar(root_pos: Tensor) -> Tensor:
+    return root_pos * root_pos.new_tensor([1.0, 0.0, 1.0])
+
+
+def joint_world_from_features(root_pos: Tensor, body_raw: Tensor) -> Tensor:
+    """World positions of joints 1..J-1 [..., J-1, 3] from J features and the root p."""
+    j = body_raw[..., L.JOINT_POS_SLICE.start - 5 : L.JOINT_POS_SLICE.stop - 5]
+    j = j.reshape(*j.shape[:-1], -1, 3)
+    return j + _planar(root_pos).unsqueeze(-2)
+
+
+def foot_skate(root_pos: Tensor, body_raw: Tensor, contacts: Tensor, fps: float) -> Tensor:
+    """Eq. 6: sum(c * |foot velocity|) / sum(c) over the foot joints, velocities from the
+    predicted foot positions by backward difference (frames 1..N-1)."""
+    world = joint_world_from_features(root_pos, body_raw)
+    feet = world[..., [j - 1 for j in L.FOOT_JOINTS], :]
+    speed = torch.linalg.vector_norm(feet[:, 1:] - feet[:, :-1], dim=-1) * fps
+    c = contacts[:, 1:]
+    return (c * speed).sum() / (c.sum() + 1e-6)
+
+
+def fk_consistency(
+    root_pos: Tensor, body_raw: Tensor, offsets: Tensor, parents: Sequence[int]
+) -> Tensor:
+    """Eq. 10: mean L2 distance between predicted joint positions (J) and FK of the predicted
+    6D rotations from the root p (metres)."""
+    rot6 = body_raw[..., : L.ROT6D_SLICE.stop - 5].reshape(*body_raw.shape[:-1], -1, 6)
+    rot = rot6d_to_matrix(rot6)
+    fk = fk_world(rot, root_pos, offsets, parents)[..., 1:, :]
+    pred = joint_world_from_features(root_pos, body_raw)
+    return torch.linalg.vector_norm(fk - pred, dim=-1).mean()
+
+
+def tokenizer_loss(
+    tokenizer: BodyTokenizer,
+    batch: Mapping[str, Tensor],
+    ctx: LossContext,
+    weights: Mapping[str, float],
+    skate_contacts: str = "predicted",
+) -> tuple[Tensor, dict[str, float]]:
+    pred, _ = tokenizer(batch["body"], batch["root"], batch["prev_root"], batch["prev_valid"])
+    recon = F.smooth_l1_loss(pred, batch["body"])
+    total = weights.get("recon", 1.0) * recon
+    parts = {"recon": float(recon.detach())}
+    body_raw = pred * ctx.std[5:] + ctx.mean[5:]
+    root_pos = batch["raw"][..., L.POS_SLICE]
+    if weights.get("skate", 0.0) > 0.0:
+        cs = slice(L.CONTACT_SLICE.start - 5, L.CONTACT_SLICE.stop - 5)
+        if skate_contacts == "predicted":
+            contacts = body_raw[..., cs].detach().clamp(0.0, 1.0)
+        else:
+            contacts = batch["raw"][..., L.CONTACT_SLICE]
+        skate = foot_skate(root_pos, body_raw, contacts, ctx.fps)
+        total = total + weights["skate"] * skate
+        parts["skate"] = float(skate.detach())
+    if ctx.offsets is not None and weights.get("fk", 0.0) > 0.0:
+        fk = fk_consistency(root_pos, body_raw, ctx.offsets, ctx.parents)
+        total = total + weights["fk"] * fk
+        parts["fk"] = float(fk.detach())
+    parts["loss"] = float(total.detach())
+    return total, parts
+
+
+def denoiser_loss(
+    denoiser: nn.Module,
+    decoder: nn.Module,
+    schedule: DiffusionSchedule,
+    batch: Mapping[str, Tensor],
+    ctx: LossContext,
+    weights: Mapping[str, float],
+    generator: torch.Generator | None = None,
+) -> tuple[Tensor, dict[str, float]]:
+    """Hybrid + decoded body + goal + FK consistency (eq. 11), weights from the config.
+
+    ``decoder`` is the frozen DecoderGraph (normalized hybrid tokens -> normalized body);
+    gradients flow through it into the prediction only.
+    """
+    x0 = batch["x0"]
+    b, c, _ = x0.shape
+    inner: Denoiser = denoiser.module if hasattr(denoiser, "module") else denoiser  # type: ignore[assignment]
+    cfg = inner.config
+    t = torch.randint(0, schedule.num_steps, (b,), generator=generator).to(x0.device)
+    noise = torch.randn(x0.shape, generator=generator).to(x0.device)
+    x_t = schedule.q_sample(x0, t, noise)
+    x0_hat = denoiser(
+        x_t,
+        t,
+        batch["text_embedding"],
+        batch["text_keep"],
+        batch["history"],
+        batch["history_mask"],
+        batch["window_goal"],
+        batch["window_goal_mask"],
+        batch["future_goal"],
+        batch["future_goal_mask"],
+        batch["future_mask"],
+        batch["constraint_keep"],
+    )
+    # Per-group weights (as Kimodo): the root part of the token can be weighted up
+    # (hybrid_root, default 1); normalized so that equal weights give the plain mean.
+    per = F.smooth_l1_loss(x0_hat, x0, reduction="none")
+    w_root = float(weights.get("hybrid_root", 1.0))
+    group = torch.ones(x0.shape[-1], device=x0.device)
+    group[: cfg.root_token_dim] = w_root
+    hybrid = (per * group).mean() / group.mean()
+    total = weights.get("hybrid", 1.0) * hybrid
+    parts = {"hybrid": float(hybrid.detach())}
+    need_decode = any(weights.get(k, 0.0) > 0.0 for k in ("decoded", "goal", "fk"))
+    if need_decode:
+        body_hat = decoder(x0_hat, batch["prev_root"], batch["prev_valid"])
+        rd = cfg.root_token_dim
+        frames = c * cfg.patch
+        root_hat = x0_hat[..., :rd].reshape(b, frames, cfg.root_dim)
+        if weights.get("decoded", 0.0) > 0.0:
+            dec = F.smooth_l1_loss(body_hat, batch["body"])
+            total = total + weights["decoded"] * dec
+            parts["decoded"] = float(dec.detach())
+        if weights.get("goal", 0.0) > 0.0:
+            explicit = torch.cat((root_hat, body_hat), dim=-1)
+            keep = batch["constraint_keep"][:, None, None]
+            mask = batch["window_goal_mask"].reshape(b, frames, -1) * keep
+            goal = batch["window_goal"].reshape(b, frames, -1)
+            gl = (mask * (explicit - goal)).abs().sum() / (mask.sum() + 1.0)
+            total = total + weights["goal"] * gl
+            parts["goal"] = float(gl.detach())
+        if ctx.offsets is not None and weights.get("fk", 0.0) > 0.0:
+            root_raw = root_hat * ctx.std[:5] + ctx.mean[:5]
+            body_raw = body_hat * ctx.std[5:] + ctx.mean[5:]
+            fk = fk_consistency(root_raw[..., :3], body_raw, ctx.offsets, ctx.parents)
+            total = total + weights["fk"] * fk
+            parts["fk"] = float(fk.detach())
+    parts["loss"] = float(total.detach())
+    return total, parts

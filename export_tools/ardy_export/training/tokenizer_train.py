@@ -1,0 +1,241 @@
+"""``ardy-export train tokenizer``: train the body tokenizer from a run config."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from torch.nn.parallel import DistributedDataParallel
+from tqdm import tqdm
+
+from ardy_export.models import layout as L
+from ardy_export.models.layout import Skeleton
+from ardy_export.models.tokenizer import BodyTokenizer, TokenizerConfig, local_root
+from ardy_export.training import adapters
+from ardy_export.training.batches import split_long, tokenizer_batch
+from ardy_export.training.common import (
+    MetricsLog,
+    Prefetcher,
+    RunContext,
+    TrainSettings,
+    average_parts,
+    load_config,
+    make_optimizer,
+    restore_rng,
+    rng_state,
+    save_checkpoint,
+    seed_everything,
+    setup_run,
+    teardown_run,
+    unwrap,
+)
+from ardy_export.training.losses import LossContext, tokenizer_loss
+
+
+@dataclass
+class TrainResult:
+    run_dir: Path
+    checkpoint: Path
+    history: list[dict[str, float]] = field(default_factory=list)
+    steps_per_second: float = 0.0
+
+
+def skeleton_dict(skeleton: Skeleton | None) -> dict[str, Any] | None:
+    if skeleton is None:
+        return None
+    return {
+        "names": list(skeleton.names),
+        "parents": list(skeleton.parents),
+        "offsets": skeleton.offsets.tolist(),
+    }
+
+
+def prepare_sequences(data_cfg: dict[str, Any], seed: int) -> list[adapters.TrainSequence]:
+    """Load (mirrored and stitched as configured) and cut sequences to ``max_seconds``."""
+    seqs = adapters.load_sequences(data_cfg, np.random.default_rng(seed))
+    max_frames = int(float(data_cfg.get("max_seconds", 10.0)) * L.FPS)
+    return split_long(seqs, max_frames)
+
+
+def local_root_stats(
+    seqs: list[adapters.TrainSequence], fps: float
+) -> tuple[np.ndarray, np.ndarray]:
+    rows = []
+    for s in seqs:
+        root = torch.from_numpy(s.features[None, :, L.ROOT_SLICE].astype(np.float32))
+        rows.append(local_root(root, root[:, 0], torch.zeros(1), fps)[0].numpy())
+    allr = np.concatenate(rows)
+    return allr.mean(0).astype(np.float32), np.maximum(allr.std(0), 1e-2).astype(np.float32)
+
+
+def train_tokenizer(
+    config: dict[str, Any], resume: bool = False, progress: bool = True
+) -> TrainResult:
+    settings = TrainSettings.from_dict(config.get("train", {}))
+    ctx: RunContext = setup_run(str(config.get("device", "auto")))
+    try:
+        return _train(config, settings, ctx, resume, progress)
+    finally:
+        teardown_run(ctx)
+
+
+def _train(
+    config: dict[str, Any],
+    settings: TrainSettings,
+    ctx: RunContext,
+    resume: bool,
+    progress: bool,
+) -> TrainResult:
+    seed = int(config.get("seed", 0))
+    seed_everything(seed + ctx.rank)
+    if settings.threads:
+        torch.set_num_threads(settings.threads)
+    run_dir = Path(config.get("run_dir", "runs/tokenizer"))
+    latest = run_dir / "latest.pt"
+    data_cfg = dict(config.get("data", {}))
+    seqs = prepare_sequences(data_cfg, seed)
+    skeleton = adapters.skeleton_for(data_cfg)
+
+    model_cfg = dict(config.get("model", {}))
+    model_cfg.setdefault("body_dim", L.BODY_DIM)
+    tcfg = TokenizerConfig.from_dict(model_cfg)
+    model = BodyTokenizer(tcfg)
+    ckpt: dict[str, Any] | None = None
+    if resume and latest.is_file():
+        ckpt = torch.load(latest, map_location="cpu", weights_only=False)
+        model.load_state_dict(ckpt["model"])
+        mean = np.asarray(ckpt["stats"]["mean"], np.float32)
+        std = np.asarray(ckpt["stats"]["std"], np.float32)
+    elif config.get("stats_file"):
+        # statistics written by the data pipeline (NormalizationStats.save, an .npz)
+        with np.load(Path(config["stats_file"])) as saved:
+            mean = np.asarray(saved["mean"], np.float32)
+            std = np.asarray(saved["std"], np.float32)
+    else:
+        h_frames = int(config.get("stats_history_frames", 160))
+        f_frames = int(config.get("stats_future_frames", 200))
+        mean, std = adapters.compute_stats(
+            seqs, seed + 7, h_frames, f_frames, std_floor=float(config.get("std_floor", 0.01))
+        )
+    if ckpt is None:
+        lm, ls = local_root_stats(seqs, tcfg.fps)
+        model.set_statistics(
+            torch.from_numpy(mean[:5]),
+            torch.from_numpy(std[:5]),
+            torch.from_numpy(lm),
+            torch.from_numpy(ls),
+        )
+    model.to(ctx.device)
+    net: torch.nn.Module = model
+    if ctx.distributed:
+        net = DistributedDataParallel(
+            model, device_ids=[ctx.device] if ctx.device.type == "cuda" else None
+        )
+    opt, sched = make_optimizer(model, settings)
+    rng = np.random.default_rng(seed + 1000 * ctx.rank + 1)
+    gen = torch.Generator().manual_seed(seed + 1000 * ctx.rank + 2)
+    start = 0
+    if ckpt is not None:
+        opt.load_state_dict(ckpt["optimizer"])
+        sched.load_state_dict(ckpt["scheduler"])
+        start = int(ckpt["step"])
+        if ckpt.get("rng", {}).get(str(ctx.rank)) is not None:
+            restore_rng(ckpt["rng"][str(ctx.rank)], rng, gen)
+
+    skeleton_t = None if skeleton is None else torch.from_numpy(skeleton.offsets)
+    loss_ctx = LossContext(
+        torch.from_numpy(mean),
+        torch.from_numpy(std),
+        skeleton_t,
+        skeleton.parents if skeleton else L.PARENTS,
+        tcfg.fps,
+    ).to(ctx.device)
+    weights = {k: float(v) for k, v in config.get("loss", {}).items() if k != "skate_contacts"}
+    weights.setdefault("recon", 1.0)
+    weights.setdefault("skate", 0.01)
+    skate_contacts = str(config.get("loss", {}).get("skate_contacts", "predicted"))
+    crop = settings.extra.get("crop_tokens", [4, 50])
+    log = MetricsLog(run_dir / "metrics.jsonl", ctx.is_main)
+
+    def state(step: int) -> dict[str, Any]:
+        return {
+            "kind": "tokenizer",
+            "step": step,
+            "model": unwrap(net).state_dict(),
+            "config": tcfg.to_dict(),
+            "run_config": {k: v for k, v in config.items() if not k.startswith("_")},
+            "stats": {"mean": mean.tolist(), "std": std.tolist()},
+            "skeleton": skeleton_dict(skeleton),
+            "optimizer": opt.state_dict(),
+            "scheduler": sched.state_dict(),
+            "rng": {str(ctx.rank): rng_state(rng, gen)},
+        }
+
+    history: list[dict[str, float]] = []
+    window: list[dict[str, float]] = []
+    bar = tqdm(
+        range(start, settings.steps),
+        initial=start,
+        total=settings.steps,
+        disable=not (progress and ctx.is_main),
+        desc="tokenizer",
+        dynamic_ncols=True,
+    )
+    t0 = time.perf_counter()
+    net.train()
+
+    def make_batch() -> dict[str, torch.Tensor]:
+        tokens = int(rng.integers(int(crop[0]), int(crop[1]) + 1))
+        return tokenizer_batch(seqs, rng, settings.batch_size, tokens, tcfg.patch, mean, std)
+
+    batches = Prefetcher(make_batch, settings.prefetch)
+    for step in bar:
+        batch = {k: v.to(ctx.device) for k, v in next(batches).items()}
+        loss, parts = tokenizer_loss(net, batch, loss_ctx, weights, skate_contacts)  # type: ignore[arg-type]
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        if settings.grad_clip > 0:
+            torch.nn.utils.clip_grad_norm_(model.parameters(), settings.grad_clip)
+        opt.step()
+        sched.step()
+        window.append(parts)
+        done = step + 1
+        if done % settings.log_every == 0 or done == settings.steps:
+            row = average_parts(window)
+            row["lr"] = sched.get_last_lr()[0]
+            window = []
+            history.append({"step": float(done), **row})
+            log.write(done, row)
+            bar.set_postfix({k: f"{v:.4f}" for k, v in row.items() if k != "lr"})
+        if ctx.is_main and (done % settings.checkpoint_every == 0 or done == settings.steps):
+            save_checkpoint(latest, state(done))
+            if settings.keep_every and done % settings.keep_every == 0:
+                save_checkpoint(run_dir / f"ckpt_{done:08d}.pt", state(done))
+    batches.close()
+    elapsed = time.perf_counter() - t0
+    steps_run = settings.steps - start
+    final = run_dir / "final.pt"
+    if ctx.is_main:
+        save_checkpoint(final, state(settings.steps))
+    return TrainResult(run_dir, final, history, steps_run / elapsed if elapsed > 0 else 0.0)
+
+
+def load_tokenizer(path: str | Path) -> tuple[BodyTokenizer, dict[str, Any]]:
+    """A trained tokenizer (eval mode, frozen) and its checkpoint dict."""
+    ckpt = torch.load(Path(path), map_location="cpu", weights_only=False)
+    if ckpt.get("kind") != "tokenizer":
+        raise ValueError(f"{path}: not a tokenizer checkpoint (kind {ckpt.get('kind')!r})")
+    tok = BodyTokenizer(TokenizerConfig.from_dict(ckpt["config"]))
+    tok.load_state_dict(ckpt["model"])
+    tok.eval()
+    for p in tok.parameters():
+        p.requires_grad_(False)
+    return tok, ckpt
+
+
+def main_from_file(path: str | Path, resume: bool) -> TrainResult:
+    return train_tokenizer(load_config(path), resume=resume)

@@ -1,0 +1,176 @@
+"""Two-stage denoiser: shapes and masks for every history/future length, invariances."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+
+from ardy_export.models import layout as L
+from ardy_export.models.denoiser import Denoiser, DenoiserConfig, split_goal
+from ardy_export.models.graphs import DENOISER_INPUTS, example_denoiser_inputs
+
+torch.set_num_threads(1)
+H_MAX, F_MAX = 6, 4
+
+
+def _denoiser(two_stage: bool = True, history_self_only: bool = True) -> Denoiser:
+    torch.manual_seed(0)
+    cfg = DenoiserConfig(
+        feature_dim=L.FEATURE_SIZE,
+        latent_dim=8,
+        window_tokens=10,
+        max_history_tokens=H_MAX,
+        max_future_tokens=F_MAX,
+        width=32,
+        layers=2,
+        heads=2,
+        ff_mult=2,
+        two_stage=two_stage,
+        history_self_only=history_self_only,
+    )
+    return Denoiser(cfg).eval()
+
+
+@pytest.fixture(scope="module")
+def den() -> Denoiser:
+    return _denoiser()
+
+
+def _run(den: Denoiser, inputs: tuple[torch.Tensor, ...]) -> torch.Tensor:
+    with torch.no_grad():
+        return den(*inputs)
+
+
+def test_input_names_match_forward() -> None:
+    import inspect
+
+    params = list(inspect.signature(Denoiser.forward).parameters)[1:]
+    assert tuple(params) == DENOISER_INPUTS
+
+
+@pytest.mark.parametrize("two_stage", [True, False])
+@pytest.mark.parametrize("history", [0, 1, H_MAX])
+@pytest.mark.parametrize("future", list(range(F_MAX + 1)))
+def test_shapes_for_every_history_and_future_length(
+    two_stage: bool, history: int, future: int
+) -> None:
+    den = _denoiser(two_stage)
+    inputs = example_denoiser_inputs(den, batch=3, history=history, future=future)
+    out = _run(den, inputs)
+    assert out.shape == (3, 10, den.config.token_dim)
+    assert torch.isfinite(out).all()
+
+
+@pytest.mark.parametrize("history", [0, 1, 3])
+@pytest.mark.parametrize("future", [0, 1, 3])
+def test_padding_does_not_change_the_result(den: Denoiser, history: int, future: int) -> None:
+    """A row padded to a longer history (front) and future (back) gives the same x0."""
+    x = list(example_denoiser_inputs(den, batch=1, history=history, future=future, seed=3))
+    x[5] = torch.ones(1, history)  # all history valid
+    x[10] = torch.ones(1, future)
+    ref = _run(den, tuple(x))
+    ph, pf = H_MAX - history, F_MAX - future
+    d, gd = den.config.token_dim, den.config.goal_dim
+    padded = list(x)
+    padded[4] = torch.cat((torch.randn(1, ph, d) * 5, x[4]), 1)  # garbage in the padding
+    padded[5] = torch.cat((torch.zeros(1, ph), x[5]), 1)
+    padded[8] = torch.cat((x[8], torch.randn(1, pf, gd)), 1)
+    padded[9] = torch.cat((x[9], torch.ones(1, pf, gd)), 1)
+    padded[10] = torch.cat((x[10], torch.zeros(1, pf)), 1)
+    assert torch.allclose(_run(den, tuple(padded)), ref, atol=1e-5)
+
+
+def test_batch_rows_are_independent(den: Denoiser) -> None:
+    x = example_denoiser_inputs(den, batch=4, history=H_MAX, future=F_MAX, seed=5)
+    full = _run(den, x)
+    for i in range(4):
+        row = tuple(t[i : i + 1] for t in x)
+        assert torch.allclose(_run(den, row), full[i : i + 1], atol=1e-5)
+
+
+def test_drop_flags_remove_text_and_constraints(den: Denoiser) -> None:
+    x = list(example_denoiser_inputs(den, batch=2, history=3, future=2, seed=7))
+    x[3] = torch.zeros(2)  # text dropped
+    x[11] = torch.zeros(2)  # constraints dropped
+    ref = _run(den, tuple(x))
+    y = list(x)
+    y[2] = torch.randn_like(x[2])
+    y[6] = torch.randn_like(x[6])
+    y[7] = torch.ones_like(x[7])
+    y[8] = torch.randn_like(x[8])
+    y[9] = torch.ones_like(x[9])
+    y[10] = torch.ones_like(x[10])
+    assert torch.allclose(_run(den, tuple(y)), ref, atol=1e-6)
+    y[3] = torch.ones(2)  # with the text kept, the embedding matters
+    assert not torch.allclose(_run(den, tuple(y)), ref, atol=1e-4)
+
+
+def test_unattended_future_tokens_are_ignored(den: Denoiser) -> None:
+    x = list(example_denoiser_inputs(den, batch=1, history=2, future=3, seed=9))
+    x[10] = torch.tensor([[1.0, 0.0, 1.0]])
+    ref = _run(den, tuple(x))
+    y = list(x)
+    y[8] = x[8].clone()
+    y[8][:, 1] = torch.randn(den.config.goal_dim)
+    assert torch.allclose(_run(den, tuple(y)), ref, atol=1e-6)
+    y[8][:, 2] += 1.0  # an attended future token changes the result
+    assert not torch.allclose(_run(den, tuple(y)), ref, atol=1e-4)
+
+
+def test_constrained_root_of_x_t_is_overwritten(den: Denoiser) -> None:
+    """Where the root is constrained, the noisy root value does not matter."""
+    c = den.config
+    x = list(example_denoiser_inputs(den, batch=1, history=2, future=0, seed=11))
+    mask = torch.zeros(1, c.window_tokens, c.patch, c.feature_dim)
+    mask[..., [0, 2]] = 1.0  # dense x, z path over the window
+    x[7] = mask.reshape(1, c.window_tokens, c.goal_dim)
+    x[6] = torch.randn(1, c.window_tokens, c.goal_dim) * x[7]
+    ref = _run(den, tuple(x))
+    y = list(x)
+    noisy = x[0].clone().reshape(1, c.window_tokens, -1)
+    root = noisy[..., : c.root_token_dim].reshape(1, c.window_tokens, c.patch, 5)
+    root[..., [0, 2]] += 10.0 * torch.randn(1, c.window_tokens, c.patch, 2)
+    noisy[..., : c.root_token_dim] = root.reshape(1, c.window_tokens, -1)
+    y[0] = noisy
+    assert torch.allclose(_run(den, tuple(y)), ref, atol=1e-6)
+
+
+def test_split_goal_layout() -> None:
+    c = DenoiserConfig(latent_dim=8)
+    goal = torch.arange(2 * c.goal_dim, dtype=torch.float32).reshape(1, 2, c.goal_dim)
+    root, body = split_goal(goal, c)
+    assert root.shape == (1, 2, 20) and body.shape == (1, 2, 4 * 253)
+    assert root[0, 1, 5].item() == c.goal_dim + 258  # token 1, frame 1, feature 0
+    assert body[0, 0, 253].item() == 258 + 5  # token 0, frame 1, first body feature
+
+
+def test_stage_one_root_is_detached_before_stage_two() -> None:
+    den = _denoiser(two_stage=True).train()
+    x = example_denoiser_inputs(den, batch=2, history=2, future=1)
+    out = den(*x)
+    out[..., den.config.root_token_dim :].sum().backward()  # body loss only
+    root_grads = [p.grad for p in den.root_stage.parameters() if p.grad is not None]
+    assert all(torch.count_nonzero(g) == 0 for g in root_grads)
+    assert any(
+        torch.count_nonzero(p.grad) > 0 for p in den.body_stage.parameters() if p.grad is not None
+    )
+
+
+def test_history_attends_only_to_history() -> None:
+    """With history_self_only the history tokens' hidden states ignore window, text, goals:
+    checked through the layer-1 output of history tokens via a forward hook."""
+    den = _denoiser(history_self_only=True)
+    seen: list[torch.Tensor] = []
+    layer = den.root_stage.transformer.layers[-1]
+    handle = layer.register_forward_hook(lambda _m, _i, out: seen.append(out.detach()))
+    x = list(example_denoiser_inputs(den, batch=1, history=4, future=2, seed=2))
+    x[5] = torch.ones(1, 4)
+    _run(den, tuple(x))
+    y = list(x)
+    y[0], y[1], y[2] = torch.randn_like(x[0]), torch.tensor([0]), torch.randn_like(x[2])
+    y[6] = torch.randn_like(x[6])
+    _run(den, tuple(y))
+    handle.remove()
+    hist = slice(2, 6)
+    assert torch.allclose(seen[0][:, hist], seen[1][:, hist], atol=1e-6)
+    assert not torch.allclose(seen[0][:, 6:], seen[1][:, 6:], atol=1e-3)

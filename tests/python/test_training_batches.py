@@ -1,0 +1,147 @@
+"""Training batches: batched yaw, tokenizer crops, denoiser windows and constraint masks."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ardy_export.models import layout as L
+from ardy_export.models.denoiser import DenoiserConfig
+from ardy_export.training.adapters import TextBank, TrainSequence, rotate_yaw
+from ardy_export.training.batches import (
+    EncodedSequence,
+    WindowSamplingConfig,
+    denoiser_batch,
+    rotate_yaw_batch,
+    split_long,
+    tokenizer_batch,
+)
+from ardy_export.training.constraint_sampling import (
+    PATTERNS,
+    ConstraintSamplingConfig,
+    sample_constraint_mask,
+)
+from ardy_export.training.synthetic import synthetic_clips
+
+MEAN = np.linspace(-0.2, 0.2, L.FEATURE_SIZE).astype(np.float32)
+STD = np.linspace(0.5, 1.5, L.FEATURE_SIZE).astype(np.float32)
+
+
+@pytest.fixture(scope="module")
+def seqs() -> list[TrainSequence]:
+    clips = synthetic_clips(6, seed=2)
+    return [
+        TrainSequence(c.name, c.features, [(0, len(c.features), (c.dataset, c.content, c.style))])
+        for c in clips
+    ]
+
+
+def test_batched_yaw_matches_the_data_package(seqs: list[TrainSequence]) -> None:
+    f = np.stack([seqs[0].features[:40], seqs[1].features[:40]])
+    angles = np.array([0.7, -2.0])
+    got = rotate_yaw_batch(f, angles)
+    for i in range(2):
+        assert np.allclose(got[i], rotate_yaw(f[i], float(angles[i])), atol=1e-5)
+
+
+def test_tokenizer_crops(seqs: list[TrainSequence]) -> None:
+    rng = np.random.default_rng(0)
+    b = tokenizer_batch(seqs, rng, 16, 6, 4, MEAN, STD)
+    assert b["body"].shape == (16, 24, 253) and b["root"].shape == (16, 24, 5)
+    assert b["raw"].shape == (16, 24, 258) and b["prev_root"].shape == (16, 5)
+    raw = b["raw"].numpy()
+    root = b["root"].numpy() * STD[:5] + MEAN[:5]
+    assert np.allclose(root, raw[..., :5], atol=1e-4)
+    for i in range(16):
+        if b["prev_valid"][i] == 0:  # no previous frame: re-centered on the first frame
+            assert np.allclose(raw[i, 0, [0, 2]], 0.0, atol=1e-5)
+            assert np.all(b["prev_root"][i].numpy() == 0)
+        else:  # re-centered on the previous frame, whose normalized root is given
+            prev = b["prev_root"][i].numpy() * STD[:5] + MEAN[:5]
+            assert np.allclose(prev[[0, 2]], 0.0, atol=1e-5)
+    # a crop longer than every sequence is shortened, not refused
+    long = tokenizer_batch(seqs, rng, 2, 1000, 4, MEAN, STD)
+    assert long["body"].shape[1] == (max(len(s.features) for s in seqs) // 4) * 4
+
+
+def test_denoiser_windows(seqs: list[TrainSequence]) -> None:
+    cfg = DenoiserConfig(latent_dim=6, max_history_tokens=5, max_future_tokens=3)
+    rng = np.random.default_rng(1)
+    enc = [
+        EncodedSequence(
+            s.features[: len(s.features) // 4 * 4],
+            rng.standard_normal((len(s.features) // 4, 6)).astype(np.float32),
+            s.segments,
+        )
+        for s in seqs
+    ]
+    bank = TextBank([s.segments[0][2] for s in seqs], "hashed")
+    only_paths = ConstraintSamplingConfig(p_none=0.0, p_mixture=0.0, weights={"path": 1.0})
+    b = denoiser_batch(enc, rng, 32, cfg, MEAN, STD, bank, only_paths, WindowSamplingConfig())
+    h, f = b["history"].shape[1], b["future_mask"].shape[1]
+    assert b["x0"].shape == (32, 10, cfg.token_dim) and h <= 5 and f <= 3
+    assert b["window_goal"].shape == (32, 10, cfg.goal_dim)
+    assert b["body"].shape == (32, 40, 253) and b["text_embedding"].shape == (32, 384)
+    hm = b["history_mask"].numpy()
+    assert np.all(np.diff(hm, axis=1) >= 0)  # padding first, valid history last
+    for i in range(32):
+        if hm[i, -1] == 1:  # re-centered on the last history frame
+            last = b["history"][i, -1, 15:20].numpy() * STD[:5] + MEAN[:5]
+            assert np.allclose(last[[0, 2]], 0.0, atol=1e-4)
+            assert b["prev_valid"][i] == 1
+        else:  # no history: re-centered on the first window frame
+            first = b["x0"][i, 0, :5].numpy() * STD[:5] + MEAN[:5]
+            assert np.allclose(first[[0, 2]], 0.0, atol=1e-4)
+        goal = b["window_goal"][i].reshape(10, 4, 258)[..., :5].reshape(10, 20)
+        mask = b["window_goal_mask"][i].reshape(10, 4, 258)[..., :5].reshape(10, 20)
+        assert np.allclose((goal * mask).numpy(), (b["x0"][i, :, :20] * mask).numpy(), atol=1e-5)
+    fm = b["future_mask"].numpy()
+    fgm = b["future_goal_mask"].numpy()
+    assert np.array_equal(fm > 0, fgm.any(axis=2))
+
+
+@pytest.mark.parametrize("pattern", PATTERNS)
+def test_constraint_patterns_touch_their_features(pattern: str) -> None:
+    cfg = ConstraintSamplingConfig(p_none=0.0, p_mixture=0.0, weights={pattern: 1.0})
+    rng = np.random.default_rng(3)
+    allowed = {
+        "waypoints": [0, 2, 3, 4],
+        "path": [0, 2, 3, 4],
+        "keyframes": list(range(0, L.JOINT_POS_SLICE.stop)),
+        "keyframe_block": list(range(0, L.JOINT_POS_SLICE.stop)),
+        "end_effectors": list(range(L.ROT6D_SLICE.start, L.JOINT_POS_SLICE.stop)),
+        "contacts": list(range(L.CONTACT_SLICE.start, L.CONTACT_SLICE.stop)),
+    }[pattern]
+    for _ in range(20):
+        mask = sample_constraint_mask(40, 16, rng, cfg)
+        assert mask.any()
+        cols = np.nonzero(mask.any(axis=0))[0]
+        assert set(cols.tolist()) <= set(allowed)
+    none = ConstraintSamplingConfig(p_none=1.0)
+    assert not sample_constraint_mask(40, 16, rng, none).any()
+
+
+def test_split_long_keeps_labels() -> None:
+    seq = TrainSequence(
+        "s",
+        np.zeros((450, 258), np.float32),
+        [(0, 300, ("d", "a", "x")), (300, 450, ("d", "b", "x"))],
+    )
+    parts = split_long([seq], 200)
+    assert [len(p.features) for p in parts] == [200, 200, 50]  # tails < 1/4 would be dropped
+    assert parts[1].segments == [(0, 100, ("d", "a", "x")), (100, 200, ("d", "b", "x"))]
+
+
+def test_prefetcher_keeps_the_batch_order() -> None:
+    from ardy_export.training.common import Prefetcher
+
+    def maker(seed: int) -> object:
+        rng = np.random.default_rng(seed)
+        return lambda: {"x": rng.standard_normal(3)}
+
+    inline = Prefetcher(maker(5), 0)
+    ahead = Prefetcher(maker(5), 3)
+    for _ in range(10):
+        assert np.array_equal(next(inline)["x"], next(ahead)["x"])
+    ahead.close()
+    assert ahead.thread is not None and not ahead.thread.is_alive()
