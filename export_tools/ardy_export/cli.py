@@ -19,6 +19,46 @@ def _make_fixtures(args: argparse.Namespace) -> int:
     return 0
 
 
+def _export(args: argparse.Namespace) -> int:
+    from ardy_export.package import PackageError, export_package
+    from ardy_export.sampling.sampler import ModelBundle
+
+    checkpoint = Path(args.checkpoint)
+    if not checkpoint.is_file():
+        print(
+            f"ardy-export export: no checkpoint at {checkpoint} "
+            "(train one with 'ardy-export train denoiser')",
+            file=sys.stderr,
+        )
+        return 1
+    bundle = ModelBundle.from_checkpoint(checkpoint)
+    try:
+        description = export_package(
+            bundle,
+            args.out,
+            provenance={"checkpoint": str(checkpoint), "data": args.data_note},
+        )
+    except PackageError as error:
+        print(f"ardy-export export: {error}", file=sys.stderr)
+        return 1
+    errors = description["provenance"]["parity_max_abs_error"]
+    for path in sorted(Path(args.out).iterdir()):
+        print(f"wrote {path} ({path.stat().st_size / 1e6:.2f} MB)")
+    print(
+        "ONNX Runtime vs PyTorch, max abs error: "
+        + ", ".join(f"{k} {v:.2g}" for k, v in errors.items())
+    )
+    return 0
+
+
+def _export_test_package(args: argparse.Namespace) -> int:
+    from ardy_export.goldens import write_test_package
+
+    index = write_test_package(args.out, seed=args.seed)
+    print(f"wrote the tiny package and {len(index['tensors'])} golden tensors to {args.out}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="ardy-export",
@@ -40,6 +80,35 @@ def build_parser() -> argparse.ArgumentParser:
         help="output folder (default: %(default)s, relative to the current directory)",
     )
     make_fixtures.set_defaults(handler=_make_fixtures)
+
+    export = commands.add_parser(
+        "export",
+        help="export a trained denoiser checkpoint as a model package (model.json + ONNX graphs)",
+        description=(
+            "Write model.json, denoiser.onnx, decoder.onnx, encoder.onnx, text_encoder.onnx "
+            "and vocab.txt; every graph is checked against PyTorch through ONNX Runtime."
+        ),
+    )
+    export.add_argument(
+        "--checkpoint", default="runs/denoiser/final.pt", help="(default: %(default)s)"
+    )
+    export.add_argument("--out", required=True, help="package folder to write")
+    export.add_argument(
+        "--data-note",
+        default="Bandai Namco Research Motion Dataset 1+2 (CC BY-NC 4.0)",
+        help="what the model was trained on, recorded in model.json",
+    )
+    export.set_defaults(handler=_export)
+
+    test_package = commands.add_parser(
+        "export-test-package",
+        help="write the tiny random-weight package and golden vectors of the C++ parity tests",
+    )
+    test_package.add_argument(
+        "--out", default="tests/data/tiny_package", help="(default: %(default)s)"
+    )
+    test_package.add_argument("--seed", type=int, default=0, help="(default: %(default)s)")
+    test_package.set_defaults(handler=_export_test_package)
     add_text_commands(commands)
     add_data_commands(commands)
     add_training_commands(commands)

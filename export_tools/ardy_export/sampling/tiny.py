@@ -36,6 +36,7 @@ def random_bundle(
     window_tokens: int = 10,
     diffusion_steps: int = 10,
     two_stage: bool = True,
+    text_dim: int = 384,
 ) -> ModelBundle:
     """A bundle with random weights and synthetic statistics; deterministic for a seed."""
     torch.manual_seed(seed)
@@ -68,6 +69,7 @@ def random_bundle(
         heads=heads,
         ff_mult=2,
         two_stage=two_stage,
+        text_dim=text_dim,
     )
     den = Denoiser(dcfg)
     rng = np.random.default_rng(seed)
