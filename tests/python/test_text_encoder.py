@@ -286,3 +286,25 @@ def test_tiny_random_encoder_has_the_same_interface(tmp_path: Path) -> None:
     out = _run(session, ids, (ids != 0).astype(np.int64))
     assert out.shape == (1, size)
     np.testing.assert_allclose(np.linalg.norm(out, axis=1), 1.0, atol=1e-5)
+
+
+def test_label_bank_round_trips_and_feeds_training(encoder: TextEncoder, tmp_path: Path) -> None:
+    from ardy_export.text.encoder import load_label_bank, write_label_bank
+    from ardy_export.text.sentences import labels, sentences_for
+    from ardy_export.training.adapters import TextBank
+
+    chosen = labels("dataset-2")[:3]
+    path = tmp_path / "bank.npz"
+    write_label_bank(path, sentences_per_label=4, encoder=encoder, labels=chosen)
+    bank = load_label_bank(path)
+    assert len(bank) == 3
+    first = chosen[0]
+    vectors = bank[(first.dataset, first.content, first.style)]
+    expected = encoder.encode(sentences_for(first.dataset, first.content, first.style, count=4))
+    assert vectors.shape == (4, 384)
+    assert np.abs(vectors - expected).max() < 2e-3  # float16 storage
+    keys = [(c.dataset, c.content, c.style) for c in chosen]
+    training = TextBank(keys, mode="bank", embedding_cache=path)
+    assert np.array_equal(training.embeddings[keys[1]], bank[keys[1]])
+    with pytest.raises(ValueError, match="no embeddings for label"):
+        TextBank([("dataset-1", "walk", "old")], mode="bank", embedding_cache=path)

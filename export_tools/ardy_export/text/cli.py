@@ -82,6 +82,15 @@ def _cases(args: argparse.Namespace) -> int:
     return 0
 
 
+def _bank(args: argparse.Namespace) -> int:
+    from ardy_export.text.encoder import write_label_bank
+
+    meta = write_label_bank(args.out, args.sentences)
+    size = Path(args.out).stat().st_size / 1e6
+    print(f"wrote {args.out}: {meta['sentences_per_label']} sentences per label, {size:.1f} MB")
+    return 0
+
+
 def add_text_commands(commands: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     """Add the ``text`` command group to the top-level subparsers."""
     from ardy_export.text.encoder import MAX_TOKENS
@@ -119,6 +128,14 @@ def add_text_commands(commands: argparse._SubParsersAction) -> None:  # type: ig
     p.add_argument("--batch-size", type=int, default=128, help="(default: %(default)s)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(handler=_embed)
+
+    p = sub.add_parser(
+        "bank",
+        help="a small float16 bank of label embeddings (training machines without MiniLM)",
+    )
+    p.add_argument("--out", default="runs/text/bank.npz", help="npz path (default: %(default)s)")
+    p.add_argument("--sentences", type=int, default=16, help="per label (default: %(default)s)")
+    p.set_defaults(handler=_bank)
 
     p = sub.add_parser(
         "export",

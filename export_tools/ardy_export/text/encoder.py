@@ -272,3 +272,59 @@ def load_embedding_cache(path: str | Path, check: bool = True) -> EmbeddingCache
             ):
                 raise ValueError(f"{path}: the sentences of {name} changed; {rebuild}")
     return cache
+
+
+def write_label_bank(
+    out_path: str | Path,
+    sentences_per_label: int = 16,
+    encoder: TextEncoder | None = None,
+    labels: Sequence[Label] | None = None,
+) -> dict[str, Any]:
+    """The first ``sentences_per_label`` sentences of every label, embedded (float16).
+
+    A few MB instead of the full cache's ~100 MB: what a training machine without the MiniLM
+    weights needs (training's ``text.mode: bank``).
+    """
+    encoder = encoder or TextEncoder()
+    chosen = list(labels) if labels is not None else text_sentences.labels()
+    keys, rows, offsets = [], [], [0]
+    for label in chosen:
+        lines = text_sentences.sentences_for(
+            label.dataset, label.content, label.style, count=sentences_per_label
+        )
+        rows.append(encoder.encode(lines))
+        keys.append(str(label))
+        offsets.append(offsets[-1] + len(lines))
+    meta = {
+        "format": "ardy-label-bank-1",
+        "model": MODEL_NAME,
+        "grammar_sha256": text_sentences.grammar_digest(),
+        "sentences_per_label": sentences_per_label,
+    }
+    out_path = Path(out_path)
+    out_path.parent.mkdir(parents=True, exist_ok=True)
+    with out_path.open("wb") as f:
+        np.savez_compressed(
+            f,
+            keys=np.array(keys, dtype=np.str_),
+            offsets=np.asarray(offsets, np.int64),
+            embeddings=np.concatenate(rows).astype(np.float16),
+            meta=np.array(json.dumps(meta)),
+        )
+    return meta
+
+
+def load_label_bank(path: str | Path) -> dict[tuple[str, str, str], np.ndarray]:
+    """(dataset, content, style) -> embeddings [n, 384] float32 from ``write_label_bank``."""
+    with np.load(Path(path), allow_pickle=False) as data:
+        meta = json.loads(str(data["meta"]))
+        if meta.get("format") != "ardy-label-bank-1":
+            raise ValueError(f"{path}: not a label bank (format {meta.get('format')})")
+        keys = [str(k) for k in data["keys"]]
+        offsets = data["offsets"]
+        embeddings = data["embeddings"].astype(np.float32)
+    bank = {}
+    for k, key in enumerate(keys):
+        dataset, content, style = key.split("/")
+        bank[(dataset, content, style)] = embeddings[offsets[k] : offsets[k + 1]]
+    return bank

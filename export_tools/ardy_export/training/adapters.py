@@ -260,7 +260,8 @@ class TextBank:
 
     ``mode = "cache"``: all sentences of the label from the text package's embedding cache
     (``embedding_cache`` path, written by its embed command); ``"encoder"``: the first
-    ``sentences`` sentences of the label embedded with MiniLM now; ``"hashed"``: the hashed
+    ``sentences`` sentences of the label embedded with MiniLM now; ``"bank"``: a small
+    float16 bank written by ``ardy-export text bank``; ``"hashed"``: the hashed
     embedding of the canonical prompt (tests, synthetic data).
     """
 
@@ -284,6 +285,16 @@ class TextBank:
             cache = load_embedding_cache(embedding_cache)
             for key in unique:
                 self.embeddings[key] = np.asarray(cache.label_embeddings(*key), np.float32)
+        elif mode == "bank":
+            from ardy_export.text.encoder import load_label_bank
+
+            if embedding_cache is None:
+                raise ValueError("text.mode 'bank' needs text.embedding_cache (a bank .npz path)")
+            bank = load_label_bank(embedding_cache)
+            for key in unique:
+                if key not in bank:
+                    raise ValueError(f"{embedding_cache}: no embeddings for label {key}")
+                self.embeddings[key] = bank[key]
         elif mode == "encoder":
             from ardy_export.text import sentences_for
             from ardy_export.text.encoder import TextEncoder
@@ -293,7 +304,7 @@ class TextBank:
                 lines = sentences_for(key[0], key[1], key[2], count=sentences)
                 self.embeddings[key] = np.asarray(encoder.encode(lines), np.float32)
         else:
-            raise ValueError(f"text.mode must be hashed, cache or encoder, got {mode!r}")
+            raise ValueError(f"text.mode must be hashed, cache, bank or encoder, got {mode!r}")
 
     def sample(self, key: LabelKey, rng: np.random.Generator) -> np.ndarray:
         options = self.embeddings[key]
