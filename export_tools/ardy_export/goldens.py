@@ -288,8 +288,20 @@ def _rollout_goldens(
 
 
 def write_test_package(out_dir: str | Path, seed: int = 0, windows: int = 4) -> dict[str, Any]:
-    """The tiny package in ``out_dir`` plus ``goldens.json`` / ``goldens.bin`` beside it."""
-    out = Path(out_dir)
+    """The tiny package in ``out_dir`` plus ``goldens.json`` / ``goldens.bin`` beside it.
+
+    PyTorch runs on one thread here: its float sums depend on the thread count, and the
+    files must come out byte-identical wherever they are written.
+    """
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        return _write_test_package(Path(out_dir), seed, windows)
+    finally:
+        torch.set_num_threads(threads)
+
+
+def _write_test_package(out: Path, seed: int, windows: int) -> dict[str, Any]:
     # The tiny text encoder's embeddings are 8 wide: the tiny denoiser takes that size.
     bundle = random_bundle(seed=seed, text_dim=TINY_TEXT_DIM)
     description = export_package(
