@@ -124,31 +124,22 @@ install_ort() {
   stamp_set ort
 }
 
-install_glm() {
-  stamp_ok glm && return 0
+# A header-only library from Debian bookworm: its usr/include/SUBDIR into .deps/NAME/include.
+install_headers() {  # name package version_glob subdir description
+  stamp_ok "$1" && return 0
   apt_setup
-  log "GLM headers (Debian bookworm)"
-  (cd "$CACHE/debs" && private_apt download -t bookworm libglm-dev >/dev/null)
-  local deb; deb=$(ls -t "$CACHE"/debs/libglm-dev_0.9*.deb | head -1)
-  rm -rf "$DEPS/glm-tmp"; dpkg-deb -x "$deb" "$DEPS/glm-tmp"
-  rm -rf "$DEPS/glm"; mkdir -p "$DEPS/glm/include"
-  cp -r "$DEPS/glm-tmp/usr/include/glm" "$DEPS/glm/include/"
-  rm -rf "$DEPS/glm-tmp"
-  stamp_set glm
+  log "$5 (Debian bookworm)"
+  (cd "$CACHE/debs" && private_apt download -t bookworm "$2" >/dev/null)
+  local deb; deb=$(ls -t "$CACHE/debs/${2}_"$3*.deb | head -1)
+  rm -rf "$DEPS/$1-tmp"; dpkg-deb -x "$deb" "$DEPS/$1-tmp"
+  rm -rf "${DEPS:?}/$1"; mkdir -p "$DEPS/$1/include"
+  cp -r "$DEPS/$1-tmp/usr/include/$4" "$DEPS/$1/include/"
+  rm -rf "$DEPS/$1-tmp"
+  stamp_set "$1"
 }
 
-install_json() {
-  stamp_ok json && return 0
-  apt_setup
-  log "nlohmann/json headers (Debian bookworm)"
-  (cd "$CACHE/debs" && private_apt download -t bookworm nlohmann-json3-dev >/dev/null)
-  local deb; deb=$(ls -t "$CACHE"/debs/nlohmann-json3-dev_3*.deb | head -1)
-  rm -rf "$DEPS/json-tmp"; dpkg-deb -x "$deb" "$DEPS/json-tmp"
-  rm -rf "$DEPS/json"; mkdir -p "$DEPS/json/include"
-  cp -r "$DEPS/json-tmp/usr/include/nlohmann" "$DEPS/json/include/"
-  rm -rf "$DEPS/json-tmp"
-  stamp_set json
-}
+install_glm() { install_headers glm libglm-dev 0.9 glm "GLM headers"; }
+install_json() { install_headers json nlohmann-json3-dev 3 nlohmann "nlohmann/json headers"; }
 
 install_catch2() {
   stamp_ok catch2 && return 0

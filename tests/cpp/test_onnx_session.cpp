@@ -15,9 +15,11 @@
 #include <vector>
 
 #include "onnx_session.hpp"
+#include "support/error_message.hpp"
 #include "support/test_data.hpp"
 
 using ardy::Error;
+using ardy_test::error_message;
 using ardy::OnnxEnvironment;
 using ardy::OnnxSession;
 using ardy::Tensor;
@@ -66,21 +68,6 @@ float max_abs_diff(const std::vector<float>& a, const std::vector<float>& b) {
   return worst;
 }
 
-// The message of the ardy::Error that `action` throws; fails the test when it
-// throws nothing or something else.
-std::string error_message(const std::function<void()>& action) {
-  try {
-    action();
-  } catch (const Error& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    FAIL("expected ardy::Error, got another exception: " << e.what());
-  } catch (...) {
-    FAIL("expected ardy::Error, got a non-standard exception");
-  }
-  FAIL("expected ardy::Error, nothing was thrown");
-  return {};
-}
 
 // The first `rows` rows of a [batch, ...] tensor.
 Tensor first_rows(const Tensor& t, int64_t rows) {
