@@ -1,0 +1,149 @@
+#pragma once
+
+// The model package (design.md section 6, docs/model_contract.md): model.json
+// plus the ONNX graphs and the text encoder's vocabulary, loaded from a folder
+// or from memory buffers (an engine passes the bytes it read from a packed
+// archive). Everything the runtime needs about the model comes from here;
+// nothing about it is hard-coded, so a package with another skeleton, window
+// or latent size loads and runs.
+//
+// Loading validates model.json field by field (types, ranges, sizes that must
+// agree: token_dim = 5 * patch + latent_dim, goal_dim = patch * features.size,
+// statistics lengths, skeleton parents, feature layout, schedule length,
+// sampling defaults, text settings) and every graph's real inputs and outputs
+// against both model.json's signature and the tensor contract. Errors name
+// the file and field with the expected and the found value, e.g.
+// "model.json: tokens.token_dim is 30, expected 5*patch + latent_dim = 28".
+//
+// A ModelPackage is immutable once loaded and may be used from several
+// threads at once (sessions and the text encoder's cache are thread-safe).
+
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "error.hpp"
+#include "features.hpp"
+#include "onnx_session.hpp"
+#include "skeleton.hpp"
+#include "text_encoder.hpp"
+
+namespace ardy {
+
+inline constexpr const char* kPackageFormat = "ardy-model-package";
+inline constexpr int kPackageFormatVersion = 1;
+
+// tokens.* of model.json (docs/model_contract.md section 1).
+struct TokenSizes {
+  size_t patch = 0;                                                 // P: frames per token
+  size_t latent_dim = 0;                                            // L
+  size_t token_dim = 0;                                             // D = 5 P + L
+  size_t window = 0;                                                // C: window tokens
+  size_t max_history = 0;                                           // H_max
+  size_t max_future = 0;                                            // F_max
+  size_t goal_dim = 0;                                              // P * M
+  size_t root_token_dim() const { return token_dim - latent_dim; }  // 5 P
+  size_t window_frames() const { return window * patch; }
+};
+
+// diffusion.* of model.json: the noise schedule the denoiser was trained with.
+struct DiffusionSchedule {
+  std::vector<double> alphas_cumprod;  // [N], t = N - 1 the noisiest
+  size_t num_steps() const { return alphas_cumprod.size(); }
+};
+
+// sampling.* of model.json.
+struct SamplingDefaults {
+  size_t steps = 4;
+  float w_text = 2.0f;
+  float w_con = 2.0f;
+  size_t decode_context_tokens = 4;
+};
+
+// The names and signature of one graph (graphs.<key> of model.json).
+struct GraphSpec {
+  std::string key;   // "denoiser", "decoder", "encoder", "text_encoder"
+  std::string file;  // e.g. "denoiser.onnx"
+  std::vector<TensorInfo> inputs;
+  std::vector<TensorInfo> outputs;
+};
+
+// text.* of model.json that the runtime uses.
+struct TextSettings {
+  std::string graph_file;  // text.graph
+  std::string vocab_file;  // text.vocab
+  size_t embedding_size = 0;
+  WordPieceOptions tokenizer;  // max_tokens, casing, accents, CJK, specials, prefix
+};
+
+// Raw bytes of one package file, not owned.
+struct ByteView {
+  const void* data = nullptr;
+  size_t size = 0;
+};
+
+// File name (as model.json names it, e.g. "denoiser.onnx") -> bytes.
+using PackageFiles = std::map<std::string, std::string>;
+using PackageFileViews = std::map<std::string, ByteView>;
+
+struct PackageOptions {
+  SessionOptions session;  // intra-op threads of every graph
+  // Cache size and prompt length limit of the text encoder (the graph's
+  // input and output names come from model.json).
+  TextEncoderOptions text;
+  // Shared with other packages when set; otherwise the package makes one.
+  std::shared_ptr<OnnxEnvironment> environment;
+};
+
+class ModelPackage {
+ public:
+  static constexpr const char* kModelFile = "model.json";
+
+  // Loads `folder`/model.json and the files it names. Errors name the path.
+  static ModelPackage from_folder(const std::string& folder, const PackageOptions& options = {});
+  // Loads from bytes: files["model.json"] and every file model.json names.
+  // The bytes need not outlive the call. `name` names the package in errors.
+  static ModelPackage from_memory(const PackageFiles& files, const std::string& name = "package",
+                                  const PackageOptions& options = {});
+  static ModelPackage from_memory(const PackageFileViews& files, const std::string& name = "package",
+                                  const PackageOptions& options = {});
+
+  ModelPackage(ModelPackage&&) noexcept;
+  ModelPackage& operator=(ModelPackage&&) noexcept;
+  ModelPackage(const ModelPackage&) = delete;
+  ModelPackage& operator=(const ModelPackage&) = delete;
+  ~ModelPackage();
+
+  const std::string& name() const;        // the folder, or the name given to from_memory
+  const std::string& model_json() const;  // the text of model.json as loaded
+
+  double fps() const;
+  const FeatureLayout& layout() const;  // M = layout().feature_size
+  const Skeleton& skeleton() const;
+  const std::vector<std::string>& contact_joints() const;  // features.contact_joints
+  const TokenSizes& tokens() const;
+  const Normalization& feature_normalization() const;  // [M]
+  const Normalization& latent_normalization() const;   // [L]
+  const DiffusionSchedule& schedule() const;
+  const SamplingDefaults& sampling_defaults() const;
+  const TextSettings& text_settings() const;
+  size_t text_embedding_size() const;  // E: denoiser text_embedding width
+
+  const OnnxSession& denoiser() const;
+  const OnnxSession& decoder() const;
+  const OnnxSession& encoder() const;
+  const TextEncoder& text_encoder() const;
+  const GraphSpec& graph_spec(const std::string& key) const;  // Error for an unknown key
+  const std::shared_ptr<OnnxEnvironment>& environment() const;
+
+ private:
+  struct Impl;
+  explicit ModelPackage(std::unique_ptr<Impl> impl);
+  const Impl& impl() const;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace ardy

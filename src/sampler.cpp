@@ -1,0 +1,484 @@
+#include "sampler.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <glm/geometric.hpp>
+
+#include "kinematics.hpp"
+
+namespace ardy {
+namespace {
+
+constexpr float kGramSchmidtEps = 1e-8f;
+
+std::string shape_text(const std::vector<int64_t>& shape) {
+  std::string out = "[";
+  for (size_t i = 0; i < shape.size(); ++i) out += (i ? ", " : "") + std::to_string(shape[i]);
+  return out + "]";
+}
+
+void check_finite_output(const std::string& graph, const std::string& output, const std::vector<float>& values) {
+  for (size_t i = 0; i < values.size(); ++i) {
+    if (!std::isfinite(values[i])) {
+      throw Error(graph + ": output '" + output + "' element " + std::to_string(i) + " is " +
+                  (std::isnan(values[i]) ? "NaN" : "infinite") + " (the model produced a non-finite value)");
+    }
+  }
+}
+
+void check_cancel(const CancelCheck& cancel) {
+  if (cancel && cancel()) throw Cancelled();
+}
+
+// The sizes every window of a batch is checked against.
+void check_window(const ModelPackage& package, const WindowInput& w, const std::vector<float>& noise,
+                  const std::string& where) {
+  const TokenSizes& t = package.tokens();
+  const size_t c = t.window, d = t.token_dim;
+  if (w.history.size() != w.history_tokens * d) {
+    throw Error(where + ": history has " + std::to_string(w.history.size()) +
+                " values, expected history_tokens * D = " + std::to_string(w.history_tokens) + " * " +
+                std::to_string(d));
+  }
+  if (w.history_tokens > t.max_history) {
+    throw Error(where + ": " + std::to_string(w.history_tokens) +
+                " history tokens, more than the model's max_history (" + std::to_string(t.max_history) + ")");
+  }
+  const WindowGoals& g = w.goals;
+  if (g.window_tokens != c || g.goal_dim != t.goal_dim || g.window_goal.size() != c * t.goal_dim ||
+      g.window_goal_mask.size() != c * t.goal_dim) {
+    throw Error(where + ": window goals are for " + std::to_string(g.window_tokens) + " tokens of " +
+                std::to_string(g.goal_dim) + " entries, the model needs " + std::to_string(c) + " of " +
+                std::to_string(t.goal_dim));
+  }
+  if (g.future_goal.size() != g.future_tokens * t.goal_dim ||
+      g.future_goal_mask.size() != g.future_tokens * t.goal_dim || g.future_mask.size() != g.future_tokens) {
+    throw Error(where + ": future goals do not hold " + std::to_string(g.future_tokens) + " tokens");
+  }
+  if (g.future_tokens > t.max_future) {
+    throw Error(where + ": " + std::to_string(g.future_tokens) +
+                " future goal tokens, more than the model's max_future (" + std::to_string(t.max_future) + ")");
+  }
+  if (noise.size() != c * d) {
+    throw Error(where + ": noise has " + std::to_string(noise.size()) +
+                " values, expected C * D = " + std::to_string(c * d));
+  }
+  if (w.text_embedding && w.text_embedding->size() != package.text_embedding_size()) {
+    throw Error(where + ": text embedding has " + std::to_string(w.text_embedding->size()) + " values, expected " +
+                std::to_string(package.text_embedding_size()));
+  }
+  const size_t n = package.schedule().num_steps();
+  if (w.steps < 1 || w.steps > n) {
+    throw Error(where + ": steps is " + std::to_string(w.steps) + ", expected 1.." + std::to_string(n) +
+                " (the schedule's diffusion.num_steps)");
+  }
+  if (!std::isfinite(w.w_text) || !std::isfinite(w.w_con)) {
+    throw Error(where + ": guidance weights must be finite (w_text " + std::to_string(w.w_text) + ", w_con " +
+                std::to_string(w.w_con) + ")");
+  }
+}
+
+uint64_t splitmix64(uint64_t& state) {
+  uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+uint64_t rotl(uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
+
+}  // namespace
+
+// --- diffusion --------------------------------------------------------------------
+
+std::vector<int64_t> ddim_timesteps(size_t num_train_steps, size_t steps) {
+  if (steps < 1 || steps > num_train_steps) {
+    throw Error("DDIM steps must be in 1.." + std::to_string(num_train_steps) + ", got " + std::to_string(steps));
+  }
+  const auto n = static_cast<int64_t>(num_train_steps);
+  const auto s = static_cast<int64_t>(steps);
+  if (s == 1) return {n - 1};
+  std::vector<int64_t> out;
+  out.reserve(steps);
+  for (int64_t i = 0; i < s; ++i) out.push_back(((n - 1) * (s - 1 - i) * 2 + (s - 1)) / (2 * (s - 1)));
+  return out;
+}
+
+std::pair<float, float> ddim_coefficients(const DiffusionSchedule& schedule, int64_t t) {
+  if (t < 0 || static_cast<size_t>(t) >= schedule.num_steps()) {
+    throw Error("diffusion timestep " + std::to_string(t) + " out of range 0.." +
+                std::to_string(schedule.num_steps() - 1));
+  }
+  const double ab = schedule.alphas_cumprod[static_cast<size_t>(t)];
+  return {static_cast<float>(std::sqrt(ab)), static_cast<float>(std::sqrt(1.0 - ab))};
+}
+
+// --- guidance ------------------------------------------------------------------------
+
+std::vector<GuidanceRow> guidance_rows(float w_text, float w_con, bool has_text, bool has_constraints) {
+  const float wt = has_text ? w_text : 0.0f;
+  const float wc = has_constraints ? w_con : 0.0f;
+  // 1 - w_t - w_c as Python computes it (float64), then float32.
+  const auto uncond = static_cast<float>(1.0 - static_cast<double>(wt) - static_cast<double>(wc));
+  const GuidanceRow all[3] = {{"uncond", 0.0f, 0.0f, uncond}, {"text", 1.0f, 0.0f, wt}, {"constraint", 0.0f, 1.0f, wc}};
+  std::vector<GuidanceRow> out;
+  for (const GuidanceRow& row : all) {
+    if (row.weight != 0.0f) out.push_back(row);
+  }
+  return out;
+}
+
+// --- noise ------------------------------------------------------------------------------
+
+NoiseGenerator::NoiseGenerator(uint64_t seed) {
+  uint64_t state = seed;
+  for (uint64_t& s : s_) s = splitmix64(state);
+}
+
+uint64_t NoiseGenerator::next() {
+  const uint64_t result = rotl(s_[1] * 5, 7) * 9;
+  const uint64_t t = s_[1] << 17;
+  s_[2] ^= s_[0];
+  s_[3] ^= s_[1];
+  s_[1] ^= s_[2];
+  s_[0] ^= s_[3];
+  s_[2] ^= t;
+  s_[3] = rotl(s_[3], 45);
+  return result;
+}
+
+double NoiseGenerator::uniform() { return (static_cast<double>(next() >> 11) + 0.5) * (1.0 / 9007199254740992.0); }
+
+void NoiseGenerator::fill(float* out, size_t count) {
+  constexpr double kTwoPi = 6.283185307179586476925286766559;
+  for (size_t i = 0; i < count; ++i) {
+    if (has_spare_) {
+      has_spare_ = false;
+      out[i] = static_cast<float>(spare_);
+      continue;
+    }
+    const double r = std::sqrt(-2.0 * std::log(uniform()));
+    const double theta = kTwoPi * uniform();
+    spare_ = r * std::sin(theta);
+    has_spare_ = true;
+    out[i] = static_cast<float>(r * std::cos(theta));
+  }
+}
+
+std::vector<float> NoiseGenerator::normal(size_t count) {
+  std::vector<float> out(count);
+  fill(out.data(), count);
+  return out;
+}
+
+// --- DDIM -----------------------------------------------------------------------------------
+
+std::vector<std::vector<float>> sample_windows(const ModelPackage& package,
+                                               const std::vector<const WindowInput*>& windows,
+                                               const std::vector<const std::vector<float>*>& noises,
+                                               const CancelCheck& cancel) {
+  if (windows.empty()) return {};
+  if (noises.size() != windows.size()) {
+    throw Error("sample_windows: " + std::to_string(windows.size()) + " windows but " + std::to_string(noises.size()) +
+                " noise tensors");
+  }
+  for (size_t w = 0; w < windows.size(); ++w) {
+    if (windows[w] == nullptr || noises[w] == nullptr)
+      throw Error("sample_windows: window " + std::to_string(w) + " is null");
+    check_window(package, *windows[w], *noises[w], "window " + std::to_string(w));
+    if (windows[w]->steps != windows[0]->steps) {
+      throw Error("sample_windows: window " + std::to_string(w) + " uses " + std::to_string(windows[w]->steps) +
+                  " steps, window 0 uses " + std::to_string(windows[0]->steps) + " (a batch shares its steps)");
+    }
+  }
+  const TokenSizes& t = package.tokens();
+  const FeatureLayout& layout = package.layout();
+  const size_t c = t.window, d = t.token_dim, pm = t.goal_dim, e = package.text_embedding_size();
+  const size_t m = layout.feature_size, patch = t.patch, rs = layout.root_size(), root_start = layout.root().start;
+  const size_t cd = c * d;
+
+  std::vector<std::vector<GuidanceRow>> rows_of;
+  size_t rows = 0, h_max = 0, f_max = 0;
+  for (const WindowInput* w : windows) {
+    rows_of.push_back(guidance_rows(w->w_text, w->w_con, w->text_embedding.has_value(), w->goals.has_constraints()));
+    if (rows_of.back().empty()) {
+      // A guard: the weights sum to 1, so at least one row remains.
+      throw Error("sample_windows: the guidance weights leave no denoiser row (w_text " + std::to_string(w->w_text) +
+                  ", w_con " + std::to_string(w->w_con) + ")");
+    }
+    rows += rows_of.back().size();
+    h_max = std::max(h_max, w->history_tokens);
+    f_max = std::max(f_max, w->goals.future_tokens);
+  }
+  const auto ri = static_cast<int64_t>(rows);
+  const auto ci = static_cast<int64_t>(c), di = static_cast<int64_t>(d), pmi = static_cast<int64_t>(pm);
+  const auto hi = static_cast<int64_t>(h_max), fi = static_cast<int64_t>(f_max);
+
+  std::vector<float> text_embedding(rows * e, 0.0f), text_keep(rows, 0.0f), constraint_keep(rows, 0.0f);
+  std::vector<float> history(rows * h_max * d, 0.0f), history_mask(rows * h_max, 0.0f);
+  std::vector<float> window_goal(rows * c * pm, 0.0f), window_goal_mask(rows * c * pm, 0.0f);
+  std::vector<float> future_goal(rows * f_max * pm, 0.0f), future_goal_mask(rows * f_max * pm, 0.0f);
+  std::vector<float> future_mask(rows * f_max, 0.0f);
+  size_t r = 0;
+  for (size_t w = 0; w < windows.size(); ++w) {
+    const WindowInput& in = *windows[w];
+    const size_t h = in.history_tokens, f = in.goals.future_tokens;
+    for (const GuidanceRow& row : rows_of[w]) {
+      if (in.text_embedding)
+        std::copy(in.text_embedding->begin(), in.text_embedding->end(), text_embedding.begin() + r * e);
+      text_keep[r] = row.text_keep;
+      constraint_keep[r] = row.constraint_keep;
+      // History right-aligned: padding at the front.
+      std::copy(in.history.begin(), in.history.end(), history.begin() + (r * h_max + (h_max - h)) * d);
+      std::fill(history_mask.begin() + r * h_max + (h_max - h), history_mask.begin() + (r + 1) * h_max, 1.0f);
+      std::copy(in.goals.window_goal.begin(), in.goals.window_goal.end(), window_goal.begin() + r * c * pm);
+      std::copy(in.goals.window_goal_mask.begin(), in.goals.window_goal_mask.end(),
+                window_goal_mask.begin() + r * c * pm);
+      // Future at the front: padding at the back.
+      std::copy(in.goals.future_goal.begin(), in.goals.future_goal.end(), future_goal.begin() + r * f_max * pm);
+      std::copy(in.goals.future_goal_mask.begin(), in.goals.future_goal_mask.end(),
+                future_goal_mask.begin() + r * f_max * pm);
+      std::copy(in.goals.future_mask.begin(), in.goals.future_mask.end(), future_mask.begin() + r * f_max);
+      (void)f;
+      ++r;
+    }
+  }
+
+  std::vector<std::pair<std::string, Tensor>> inputs;
+  inputs.reserve(12);
+  inputs.emplace_back("x_t", Tensor::float32({ri, ci, di}, std::vector<float>(rows * cd, 0.0f)));
+  inputs.emplace_back("step", Tensor::int64({ri}, std::vector<int64_t>(rows, 0)));
+  inputs.emplace_back("text_embedding", Tensor::float32({ri, static_cast<int64_t>(e)}, std::move(text_embedding)));
+  inputs.emplace_back("text_keep", Tensor::float32({ri}, std::move(text_keep)));
+  inputs.emplace_back("history", Tensor::float32({ri, hi, di}, std::move(history)));
+  inputs.emplace_back("history_mask", Tensor::float32({ri, hi}, std::move(history_mask)));
+  inputs.emplace_back("window_goal", Tensor::float32({ri, ci, pmi}, std::move(window_goal)));
+  inputs.emplace_back("window_goal_mask", Tensor::float32({ri, ci, pmi}, std::move(window_goal_mask)));
+  inputs.emplace_back("future_goal", Tensor::float32({ri, fi, pmi}, std::move(future_goal)));
+  inputs.emplace_back("future_goal_mask", Tensor::float32({ri, fi, pmi}, std::move(future_goal_mask)));
+  inputs.emplace_back("future_mask", Tensor::float32({ri, fi}, std::move(future_mask)));
+  inputs.emplace_back("constraint_keep", Tensor::float32({ri}, std::move(constraint_keep)));
+  std::vector<float>& x_rows = inputs[0].second.data;
+  std::vector<int64_t>& step_rows = inputs[1].second.int64_data;
+
+  std::vector<std::vector<float>> x;  // current x_t of each window
+  x.reserve(windows.size());
+  for (const std::vector<float>* noise : noises) x.push_back(*noise);
+  std::vector<std::vector<float>> x0(windows.size(), std::vector<float>(cd, 0.0f));
+
+  const std::vector<int64_t> timesteps = ddim_timesteps(package.schedule().num_steps(), windows[0]->steps);
+  const std::vector<int64_t> expected_shape{ri, ci, di};
+  for (size_t i = 0; i < timesteps.size(); ++i) {
+    check_cancel(cancel);
+    r = 0;
+    for (size_t w = 0; w < windows.size(); ++w) {
+      for (size_t k = 0; k < rows_of[w].size(); ++k, ++r) std::copy(x[w].begin(), x[w].end(), x_rows.begin() + r * cd);
+    }
+    std::fill(step_rows.begin(), step_rows.end(), timesteps[i]);
+    const std::vector<Tensor> out = package.denoiser().run(inputs, {"x0"});
+    const Tensor& rows_x0 = out.at(0);
+    if (rows_x0.shape != expected_shape) {
+      throw Error(package.denoiser().name() + ": output 'x0' has shape " + shape_text(rows_x0.shape) + ", expected " +
+                  shape_text(expected_shape));
+    }
+    r = 0;
+    for (size_t w = 0; w < windows.size(); ++w) {
+      const WindowInput& in = *windows[w];
+      std::vector<float>& result = x0[w];
+      const std::vector<GuidanceRow>& brs = rows_of[w];
+      // x0 = c_first * row_first + c_next * row_next + ... (float32, in order).
+      const float* first = rows_x0.data.data() + r * cd;
+      for (size_t j = 0; j < cd; ++j) result[j] = brs[0].weight * first[j];
+      for (size_t b = 1; b < brs.size(); ++b) {
+        const float* row = rows_x0.data.data() + (r + b) * cd;
+        for (size_t j = 0; j < cd; ++j) {
+          const float term = brs[b].weight * row[j];
+          result[j] = result[j] + term;
+        }
+      }
+      r += brs.size();
+      if (in.root_overwrite) {
+        // Root entries p * rs + q of token k <- goal entries p * M + root_start + q.
+        for (size_t k = 0; k < c; ++k) {
+          for (size_t p = 0; p < patch; ++p) {
+            for (size_t q = 0; q < rs; ++q) {
+              const size_t g = k * pm + p * m + root_start + q;
+              const float v = in.goals.window_goal_mask[g];
+              const float goal = in.goals.window_goal[g];
+              float& value = result[k * d + p * rs + q];
+              const float kept = (1.0f - v) * value;
+              const float set = v * goal;
+              value = kept + set;
+            }
+          }
+        }
+      }
+    }
+    if (i + 1 < timesteps.size()) {
+      const auto [a, b] = ddim_coefficients(package.schedule(), timesteps[i]);
+      const auto [a_next, b_next] = ddim_coefficients(package.schedule(), timesteps[i + 1]);
+      for (size_t w = 0; w < windows.size(); ++w) {
+        std::vector<float>& xt = x[w];
+        const std::vector<float>& clean = x0[w];
+        for (size_t j = 0; j < cd; ++j) {
+          const float scaled = a * clean[j];
+          const float eps = (xt[j] - scaled) / b;
+          const float signal = a_next * clean[j];
+          const float noise = b_next * eps;
+          xt[j] = signal + noise;
+        }
+      }
+    }
+  }
+  for (const std::vector<float>& result : x0) check_finite_output(package.denoiser().name(), "x0", result);
+  return x0;
+}
+
+// --- decoding and poses ----------------------------------------------------------------------
+
+std::vector<float> decode_window(const ModelPackage& package, const float* context, size_t context_tokens,
+                                 const std::vector<float>& window, const float* prev_root) {
+  const TokenSizes& t = package.tokens();
+  const FeatureLayout& layout = package.layout();
+  const size_t c = t.window, d = t.token_dim, rs = layout.root_size(), bs = layout.body_size();
+  if (window.size() != c * d) {
+    throw Error("decode_window: window has " + std::to_string(window.size()) +
+                " values, expected C * D = " + std::to_string(c * d));
+  }
+  if (context_tokens > 0 && context == nullptr) throw Error("decode_window: context tokens without data");
+  const size_t count = context_tokens + c;
+  std::vector<float> tokens(count * d);
+  if (context_tokens) std::copy(context, context + context_tokens * d, tokens.begin());
+  std::copy(window.begin(), window.end(), tokens.begin() + context_tokens * d);
+  std::vector<float> prev(rs, 0.0f);
+  if (prev_root) std::copy(prev_root, prev_root + rs, prev.begin());
+  std::vector<std::pair<std::string, Tensor>> inputs;
+  inputs.emplace_back("tokens",
+                      Tensor::float32({1, static_cast<int64_t>(count), static_cast<int64_t>(d)}, std::move(tokens)));
+  inputs.emplace_back("prev_root", Tensor::float32({1, static_cast<int64_t>(rs)}, std::move(prev)));
+  inputs.emplace_back("prev_root_valid", Tensor::float32({1}, {prev_root ? 1.0f : 0.0f}));
+  const std::vector<Tensor> out = package.decoder().run(inputs, {"body"});
+  const Tensor& body = out.at(0);
+  const std::vector<int64_t> expected{1, static_cast<int64_t>(count * t.patch), static_cast<int64_t>(bs)};
+  if (body.shape != expected) {
+    throw Error(package.decoder().name() + ": output 'body' has shape " + shape_text(body.shape) + ", expected " +
+                shape_text(expected));
+  }
+  check_finite_output(package.decoder().name(), "body", body.data);
+  const size_t keep = c * t.patch * bs;
+  return std::vector<float>(body.data.end() - static_cast<std::ptrdiff_t>(keep), body.data.end());
+}
+
+std::vector<float> window_features(const ModelPackage& package, const std::vector<float>& tokens,
+                                   const std::vector<float>& body, const glm::dvec2& offset) {
+  const TokenSizes& t = package.tokens();
+  const FeatureLayout& layout = package.layout();
+  const size_t c = t.window, d = t.token_dim, patch = t.patch, m = layout.feature_size;
+  const size_t rs = layout.root_size(), bs = layout.body_size();
+  const FeatureSlice root = layout.root(), body_slice = layout.body();
+  const size_t frames = c * patch;
+  if (tokens.size() != c * d || body.size() != frames * bs) {
+    throw Error("window_features: " + std::to_string(tokens.size()) + " token values and " +
+                std::to_string(body.size()) + " body values, expected " + std::to_string(c * d) + " and " +
+                std::to_string(frames * bs));
+  }
+  std::vector<float> features(frames * m);
+  for (size_t k = 0; k < c; ++k) {
+    for (size_t p = 0; p < patch; ++p) {
+      float* f = features.data() + (k * patch + p) * m;
+      std::copy(tokens.begin() + k * d + p * rs, tokens.begin() + k * d + (p + 1) * rs, f + root.start);
+      std::copy(body.begin() + (k * patch + p) * bs, body.begin() + (k * patch + p + 1) * bs, f + body_slice.start);
+    }
+  }
+  package.feature_normalization().denormalize(features.data(), frames);
+  const auto ox = static_cast<float>(offset.x), oz = static_cast<float>(offset.y);
+  for (size_t f = 0; f < frames; ++f) {
+    float* p = features.data() + f * m + layout.root_position.start;
+    p[0] = p[0] + ox;
+    p[2] = p[2] + oz;
+  }
+  return features;
+}
+
+glm::mat3 model_rotation_from_6d(const float* six) {
+  const glm::vec3 a1(six[0], six[1], six[2]);
+  glm::vec3 a2(six[3], six[4], six[5]);
+  const float n1 = std::sqrt((a1.x * a1.x + a1.y * a1.y + a1.z * a1.z) + kGramSchmidtEps);
+  const glm::vec3 b1 = a1 / n1;
+  const float dot = b1.x * a2.x + b1.y * a2.y + b1.z * a2.z;
+  a2 = a2 - dot * b1;
+  const float n2 = std::sqrt((a2.x * a2.x + a2.y * a2.y + a2.z * a2.z) + kGramSchmidtEps);
+  const glm::vec3 b2 = a2 / n2;
+  const glm::vec3 b3(b1.y * b2.z - b1.z * b2.y, b1.z * b2.x - b1.x * b2.z, b1.x * b2.y - b1.y * b2.x);
+  return glm::mat3(b1, b2, b3);
+}
+
+void features_to_motion(const Skeleton& skeleton, const FeatureLayout& layout, const float* features,
+                        size_t frame_count, Motion& out) {
+  const size_t j = skeleton.joint_count();
+  if (layout.joint_count != j) {
+    throw Error("features_to_motion: the layout has " + std::to_string(layout.joint_count) + " joints, the skeleton " +
+                std::to_string(j));
+  }
+  out.frame_count = frame_count;
+  out.joint_count = j;
+  out.global_rotations.resize(frame_count * j);
+  out.local_rotations.resize(frame_count * j);
+  out.positions.resize(frame_count * j);
+  std::vector<glm::mat3> global(j), local(j);
+  std::vector<glm::vec3> positions(j);
+  for (size_t f = 0; f < frame_count; ++f) {
+    const float* row = features + f * layout.feature_size;
+    for (size_t joint = 0; joint < j; ++joint) {
+      global[joint] = model_rotation_from_6d(row + layout.rotation_6d.start + 6 * joint);
+    }
+    global_to_local(skeleton, global, local);
+    const float* p = row + layout.root_position.start;
+    joint_positions(skeleton, glm::vec3(p[0], p[1], p[2]), global, positions);
+    std::copy(global.begin(), global.end(), out.global_rotations.begin() + f * j);
+    std::copy(local.begin(), local.end(), out.local_rotations.begin() + f * j);
+    std::copy(positions.begin(), positions.end(), out.positions.begin() + f * j);
+  }
+}
+
+// --- whole windows --------------------------------------------------------------------------------
+
+std::vector<WindowResult> generate_windows(const ModelPackage& package, const std::vector<const WindowInput*>& windows,
+                                           const std::vector<const std::vector<float>*>& noises,
+                                           const CancelCheck& cancel) {
+  const std::vector<std::vector<float>> x0 = sample_windows(package, windows, noises, cancel);
+  const TokenSizes& t = package.tokens();
+  const size_t d = t.token_dim, rs = package.layout().root_size();
+  std::vector<WindowResult> results;
+  results.reserve(windows.size());
+  for (size_t w = 0; w < windows.size(); ++w) {
+    const WindowInput& in = *windows[w];
+    check_cancel(cancel);
+    const size_t h = in.history_tokens;
+    const size_t k = std::min(h, in.decode_context_tokens);
+    const float* context = in.history.data() + (h - k) * d;
+    const float* prev_root = h >= k + 1 ? in.history.data() + (h - k - 1) * d + (t.patch - 1) * rs : nullptr;
+    const std::vector<float> body = decode_window(package, k ? context : nullptr, k, x0[w], prev_root);
+    WindowResult result;
+    result.start_frame = in.start_frame;
+    result.offset = in.offset;
+    result.history_tokens = h;
+    result.prompt = in.prompt;
+    result.frame_count = t.window * t.patch;
+    result.tokens = x0[w];
+    result.features = window_features(package, result.tokens, body, in.offset);
+    features_to_motion(package.skeleton(), package.layout(), result.features.data(), result.frame_count, result.motion);
+    results.push_back(std::move(result));
+  }
+  return results;
+}
+
+WindowResult generate_window(const ModelPackage& package, const WindowInput& window, const std::vector<float>& noise,
+                             const CancelCheck& cancel) {
+  std::vector<WindowResult> results = generate_windows(package, {&window}, {&noise}, cancel);
+  return std::move(results.front());
+}
+
+}  // namespace ardy

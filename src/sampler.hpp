@@ -1,0 +1,175 @@
+#pragma once
+
+// One window of the model (docs/model_contract.md section 3, steps 4-9): the
+// guidance rows, deterministic DDIM with the in-window root overwrite of the
+// guided x0, decoding with history context, un-normalizing and un-centering,
+// 6D -> rotations, global -> local rotations and forward kinematics. A batch
+// of windows (several characters) shares one denoiser call per step, their
+// rows concatenated.
+//
+// Pure: every function here depends only on its arguments (and the immutable
+// ModelPackage); no threads, no clocks, no hidden state. The port follows
+// export_tools/ardy_export/sampling/{sampler,guidance}.py and diffusion.py
+// operation by operation in float32, so results match the reference up to
+// the graphs' own float differences. The autoregressive state around it is
+// rollout.hpp.
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <glm/mat3x3.hpp>
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include "constraints.hpp"
+#include "error.hpp"
+#include "package.hpp"
+
+namespace ardy {
+
+// --- diffusion -----------------------------------------------------------------
+
+// The timesteps a DDIM run with `steps` steps visits, noisiest first:
+// t_i = ((N-1)(S-1-i)*2 + (S-1)) // (2(S-1)); S = 1: [N-1]. Error unless
+// 1 <= steps <= num_train_steps.
+std::vector<int64_t> ddim_timesteps(size_t num_train_steps, size_t steps);
+// (float32(sqrt(ab[t])), float32(sqrt(1 - ab[t]))), computed in double.
+std::pair<float, float> ddim_coefficients(const DiffusionSchedule& schedule, int64_t t);
+
+// --- guidance ---------------------------------------------------------------------
+
+// One denoiser row of a window (guidance.py Branch).
+struct GuidanceRow {
+  const char* name = "";  // "uncond", "text", "constraint"
+  float text_keep = 0.0f;
+  float constraint_keep = 0.0f;
+  float weight = 0.0f;
+};
+
+// Rows D0, D_text, D_con in this order, each only if its weight is not
+// exactly 0: w_t = w_text if has_text else 0, w_c = w_con if has_constraints
+// else 0, D0 weight 1 - w_t - w_c.
+std::vector<GuidanceRow> guidance_rows(float w_text, float w_con, bool has_text, bool has_constraints);
+
+// --- cancellation -----------------------------------------------------------------
+
+// Thrown when a CancelCheck asks to stop; nothing is committed.
+class Cancelled : public Error {
+ public:
+  Cancelled() : Error("window generation cancelled") {}
+};
+
+// Asked before every denoiser and decoder call: true stops the window
+// (Cancelled is thrown). Called on the thread that runs the window.
+using CancelCheck = std::function<bool()>;
+
+// --- noise ------------------------------------------------------------------------
+
+// Seedable standard-normal float32 noise (xoshiro256** seeded by splitmix64,
+// Box-Muller in double). The same seed gives the same numbers on every
+// platform; copying the generator snapshots its state. (Not numpy's
+// generator: goldens pass their noise explicitly.)
+class NoiseGenerator {
+ public:
+  explicit NoiseGenerator(uint64_t seed = 0);
+  void fill(float* out, size_t count);
+  std::vector<float> normal(size_t count);
+
+ private:
+  uint64_t next();
+  double uniform();  // (0, 1)
+  uint64_t s_[4];
+  bool has_spare_ = false;
+  double spare_ = 0.0;
+};
+
+// --- one window -------------------------------------------------------------------
+
+// Everything a window needs, already in the model's frame (what a Rollout
+// prepares; docs/model_contract.md steps 1-3).
+struct WindowInput {
+  int64_t start_frame = 0;
+  glm::dvec2 offset{0.0};      // world (x, z) of the model frame's origin
+  size_t history_tokens = 0;   // h
+  std::vector<float> history;  // [h, D] normalized, re-centered, oldest first
+  std::optional<std::string> prompt;
+  std::optional<std::vector<float>> text_embedding;  // [E]; nullopt: no prompt (text row skipped)
+  WindowGoals goals;
+  // Sampling settings of this window.
+  size_t steps = 4;
+  float w_text = 2.0f;
+  float w_con = 2.0f;
+  bool root_overwrite = true;
+  size_t decode_context_tokens = 4;
+};
+
+// Poses of consecutive frames, flat per frame then joint.
+struct Motion {
+  size_t frame_count = 0;
+  size_t joint_count = 0;
+  std::vector<glm::mat3> global_rotations;  // [T * J] world rotations
+  std::vector<glm::mat3> local_rotations;   // [T * J] parent-relative (root: world)
+  std::vector<glm::vec3> positions;         // [T * J] world positions by FK
+
+  const glm::mat3* global_rotations_of(size_t frame) const { return global_rotations.data() + frame * joint_count; }
+  const glm::mat3* local_rotations_of(size_t frame) const { return local_rotations.data() + frame * joint_count; }
+  const glm::vec3* positions_of(size_t frame) const { return positions.data() + frame * joint_count; }
+};
+
+struct WindowResult {
+  int64_t start_frame = 0;
+  glm::dvec2 offset{0.0};
+  size_t history_tokens = 0;
+  std::optional<std::string> prompt;
+  size_t frame_count = 0;       // C * P
+  std::vector<float> tokens;    // x0 [C, D]: normalized, model frame
+  std::vector<float> features;  // [C * P, M]: world explicit features
+  Motion motion;                // the same frames as poses
+};
+
+// DDIM for a batch of windows, all rows of all windows in one denoiser call
+// per step (sampler.py sample_windows). noises[i] is window i's initial noise
+// [C, D]. Every window must use the same number of steps. Returns each
+// window's clean tokens x0 [C, D] (normalized, model frame).
+std::vector<std::vector<float>> sample_windows(const ModelPackage& package,
+                                               const std::vector<const WindowInput*>& windows,
+                                               const std::vector<const std::vector<float>*>& noises,
+                                               const CancelCheck& cancel = {});
+
+// Decodes [context; window] tokens (normalized, one model frame) and keeps
+// the window's frames: normalized body [C * P, body]. prev_root [root size]
+// (normalized) is the root of the frame before the first context token, or
+// null when there is none.
+std::vector<float> decode_window(const ModelPackage& package, const float* context, size_t context_tokens,
+                                 const std::vector<float>& window, const float* prev_root);
+
+// World features [C * P, M] from window tokens [C, D] and decoded body:
+// x * std + mean, then + offset on p.x and p.z (float32).
+std::vector<float> window_features(const ModelPackage& package, const std::vector<float>& tokens,
+                                   const std::vector<float>& body, const glm::dvec2& offset);
+
+// The contract's Gram-Schmidt (b1 = a1 / sqrt(|a1|^2 + 1e-8), the same for
+// b2, b3 = b1 x b2), float32.
+glm::mat3 model_rotation_from_6d(const float* six);
+
+// Poses of `frame_count` frames of world features (6D -> rotations, local
+// rotations, FK from the root position with the skeleton's rest offsets).
+void features_to_motion(const Skeleton& skeleton, const FeatureLayout& layout, const float* features,
+                        size_t frame_count, Motion& out);
+
+// The whole window (steps 6-9): DDIM, decode with up to
+// decode_context_tokens history tokens, features, poses.
+WindowResult generate_window(const ModelPackage& package, const WindowInput& window, const std::vector<float>& noise,
+                             const CancelCheck& cancel = {});
+// Several windows (characters) with one denoiser call per step; decoding is
+// one call per window.
+std::vector<WindowResult> generate_windows(const ModelPackage& package, const std::vector<const WindowInput*>& windows,
+                                           const std::vector<const std::vector<float>*>& noises,
+                                           const CancelCheck& cancel = {});
+
+}  // namespace ardy

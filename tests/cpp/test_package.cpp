@@ -1,0 +1,255 @@
+// ModelPackage: loading the tiny package from a folder and from memory, the
+// values it exposes, and clear errors for malformed packages (missing or
+// swapped graphs, bad model.json fields), after which loading still works.
+
+#include <catch_amalgamated.hpp>
+
+#include <filesystem>
+#include <functional>
+#include <fstream>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "package.hpp"
+#include "support/error_message.hpp"
+#include "support/goldens.hpp"
+#include "support/test_data.hpp"
+
+using ardy::ModelPackage;
+using ardy::PackageFiles;
+using ardy_test::error_message;
+using ardy_test::tiny_package_dir;
+using Catch::Matchers::ContainsSubstring;
+using nlohmann::json;
+
+namespace {
+
+const char* const kFiles[] = {"model.json",   "denoiser.onnx",     "decoder.onnx",
+                              "encoder.onnx", "text_encoder.onnx", "vocab.txt"};
+
+const PackageFiles& tiny_files() {
+  static const PackageFiles files = [] {
+    PackageFiles out;
+    for (const char* name : kFiles) {
+      const std::vector<unsigned char> bytes = ardy_test::read_bytes(tiny_package_dir() + "/" + name);
+      out.emplace(name, std::string(bytes.begin(), bytes.end()));
+    }
+    return out;
+  }();
+  return files;
+}
+
+ardy::PackageOptions one_thread() {
+  ardy::PackageOptions options;
+  options.session.intra_op_threads = 1;
+  return options;
+}
+
+ModelPackage load(const PackageFiles& files) { return ModelPackage::from_memory(files, "tiny", one_thread()); }
+
+// The tiny package with model.json edited by `edit`.
+PackageFiles with_model_json(const std::function<void(json&)>& edit) {
+  PackageFiles files = tiny_files();
+  json doc = json::parse(files.at("model.json"));
+  edit(doc);
+  files["model.json"] = doc.dump(1);
+  return files;
+}
+
+std::string load_error(const std::function<void(json&)>& edit) {
+  const PackageFiles files = with_model_json(edit);
+  return error_message([&] { load(files); });
+}
+
+std::vector<float> run_golden_denoiser(const ModelPackage& package) {
+  std::vector<std::pair<std::string, ardy::Tensor>> inputs;
+  for (const ardy::TensorInfo& info : package.denoiser().inputs()) {
+    inputs.emplace_back(info.name, ardy_test::goldens().tensor("denoiser/input/" + info.name));
+  }
+  return package.denoiser().run(inputs, {"x0"}).at(0).data;
+}
+
+}  // namespace
+
+TEST_CASE("the tiny package loads from its folder with every value from model.json", "[package]") {
+  const ModelPackage package = ModelPackage::from_folder(tiny_package_dir(), one_thread());
+  CHECK(package.name() == tiny_package_dir());
+  CHECK(package.fps() == 20.0);
+  const ardy::TokenSizes& t = package.tokens();
+  CHECK(t.patch == 4);
+  CHECK(t.latent_dim == 8);
+  CHECK(t.token_dim == 28);
+  CHECK(t.root_token_dim() == 20);
+  CHECK(t.window == 10);
+  CHECK(t.max_history == 8);
+  CHECK(t.max_future == 4);
+  CHECK(t.goal_dim == 1032);
+  CHECK(package.layout().feature_size == 258);
+  CHECK(package.layout() == ardy::FeatureLayout::ardy_default(21, 4));
+  CHECK(package.skeleton().joint_count() == 21);
+  CHECK(package.skeleton().name(12) == "Hand_R");
+  CHECK(package.skeleton().parent(12) == 11);
+  CHECK(package.skeleton().offset(1).y == Catch::Approx(0.1f));
+  CHECK(package.contact_joints() == std::vector<std::string>{"Foot_L", "Toes_L", "Foot_R", "Toes_R"});
+  CHECK(package.feature_normalization().size() == 258);
+  CHECK(package.latent_normalization().size() == 8);
+  CHECK(package.schedule().num_steps() == 10);
+  CHECK(package.schedule().alphas_cumprod[0] == Catch::Approx(0.972092737));
+  CHECK(package.sampling_defaults().steps == 4);
+  CHECK(package.sampling_defaults().w_text == 2.0f);
+  CHECK(package.sampling_defaults().w_con == 2.0f);
+  CHECK(package.sampling_defaults().decode_context_tokens == 4);
+  CHECK(package.text_embedding_size() == 8);
+  CHECK(package.text_encoder().embedding_size() == 8);
+  CHECK(package.text_settings().tokenizer.max_tokens == 128);
+  CHECK(package.graph_spec("denoiser").inputs.size() == 12);
+  CHECK(package.denoiser().find_input("x_t") != nullptr);
+  CHECK_THAT(error_message([&] { package.graph_spec("planner"); }), ContainsSubstring("no graph 'planner'"));
+}
+
+TEST_CASE("a package from memory buffers behaves like the folder", "[package]") {
+  const ModelPackage from_memory = load(tiny_files());
+  const ModelPackage from_folder = ModelPackage::from_folder(tiny_package_dir(), one_thread());
+  CHECK(run_golden_denoiser(from_memory) == run_golden_denoiser(from_folder));
+  CHECK(from_memory.text_encoder().encode("a person walks") == from_folder.text_encoder().encode("a person walks"));
+  CHECK(from_memory.name() == "tiny");
+  // Views over bytes the caller owns work too.
+  ardy::PackageFileViews views;
+  for (const auto& [name, bytes] : tiny_files()) views.emplace(name, ardy::ByteView{bytes.data(), bytes.size()});
+  ModelPackage from_views = ModelPackage::from_memory(views, "views", one_thread());
+  CHECK(from_views.tokens().token_dim == 28);
+  // A moved package keeps working; the moved-from one says so.
+  ModelPackage moved = std::move(from_views);
+  CHECK(moved.tokens().window == 10);
+  CHECK_THAT(error_message([&] { from_views.tokens(); }), ContainsSubstring("moved from"));
+}
+
+TEST_CASE("missing files are named", "[package][errors]") {
+  PackageFiles files = tiny_files();
+  files.erase("decoder.onnx");
+  CHECK_THAT(error_message([&] { load(files); }),
+             ContainsSubstring("tiny/decoder.onnx: file not given (expected an ONNX model") &&
+                 ContainsSubstring("graph 'decoder'"));
+  files = tiny_files();
+  files.erase("vocab.txt");
+  CHECK_THAT(error_message([&] { load(files); }), ContainsSubstring("tiny/vocab.txt: file not given"));
+  files = tiny_files();
+  files.erase("model.json");
+  CHECK_THAT(error_message([&] { load(files); }), ContainsSubstring("tiny/model.json: file not given"));
+
+  // The same from a folder.
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "ardy_test_package_missing";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  for (const char* name : kFiles) {
+    if (std::string(name) == "decoder.onnx") continue;
+    std::filesystem::copy_file(tiny_package_dir() + "/" + name, dir / name);
+  }
+  CHECK_THAT(error_message([&] { ModelPackage::from_folder(dir.string(), one_thread()); }),
+             ContainsSubstring((dir / "decoder.onnx").string() + ": file not found (expected an ONNX model)") &&
+                 ContainsSubstring("graphs.decoder.file"));
+  std::filesystem::remove_all(dir);
+  CHECK_THAT(error_message([&] { ModelPackage::from_folder(dir.string(), one_thread()); }),
+             ContainsSubstring("not a folder"));
+}
+
+TEST_CASE("a swapped graph is a signature mismatch naming the graph and the input", "[package][errors]") {
+  PackageFiles files = tiny_files();
+  std::swap(files.at("decoder.onnx"), files.at("encoder.onnx"));
+  const std::string message = error_message([&] { load(files); });
+  CHECK_THAT(message, ContainsSubstring("tiny/decoder.onnx (graph 'decoder'): signature mismatch") &&
+                          ContainsSubstring("declares input 'tokens' float32 [batch, tokens, 28]") &&
+                          ContainsSubstring("its inputs: 'body'"));
+  files = tiny_files();
+  files.at("text_encoder.onnx") = files.at("denoiser.onnx");
+  CHECK_THAT(error_message([&] { load(files); }),
+             ContainsSubstring("(graph 'text_encoder'): signature mismatch") && ContainsSubstring("'input_ids'"));
+  files = tiny_files();
+  files.at("encoder.onnx") = "not an onnx file";
+  CHECK_THAT(error_message([&] { load(files); }), ContainsSubstring("tiny/encoder.onnx: not a valid ONNX model"));
+}
+
+TEST_CASE("model.json fields are validated with the field, the expected and the found value", "[package][errors]") {
+  CHECK_THAT(load_error([](json& d) { d["format_version"] = 2; }),
+             ContainsSubstring("model.json: format_version is 2, expected 1"));
+  CHECK_THAT(load_error([](json& d) { d["format"] = "something-else"; }),
+             ContainsSubstring("model.json: format is 'something-else', expected 'ardy-model-package'"));
+  CHECK_THAT(load_error([](json& d) { d["tokens"]["token_dim"] = 30; }),
+             ContainsSubstring("model.json: tokens.token_dim is 30, expected 5*patch + latent_dim = 28"));
+  CHECK_THAT(load_error([](json& d) { d["tokens"]["goal_dim"] = 1000; }),
+             ContainsSubstring("model.json: tokens.goal_dim is 1000, expected patch * features.size = 1032"));
+  CHECK_THAT(load_error([](json& d) { d["normalization"].erase("latent_std"); }),
+             ContainsSubstring("model.json: missing field normalization.latent_std"));
+  CHECK_THAT(load_error([](json& d) { d.erase("tokens"); }), ContainsSubstring("model.json: missing field tokens"));
+  CHECK_THAT(load_error([](json& d) { d["tokens"]["patch"] = "four"; }),
+             ContainsSubstring("model.json: tokens.patch must be an integer, found \"four\""));
+  CHECK_THAT(load_error([](json& d) { d["normalization"]["mean"].erase(0); }),
+             ContainsSubstring("model.json: normalization.mean has 257 entries, expected 258"));
+  CHECK_THAT(load_error([](json& d) { d["normalization"]["std"][7] = 0.0; }),
+             ContainsSubstring("std[7] is 0.000000; standard deviations must be finite and positive"));
+  CHECK_THAT(load_error([](json& d) { d["normalization"]["latent_mean"] = json::array({1, 2}); }),
+             ContainsSubstring("normalization.latent_mean has 2 entries, expected 8"));
+  CHECK_THAT(load_error([](json& d) { d["skeleton"]["parents"][3] = 5; }),
+             ContainsSubstring("skeleton: joint 3 ('Neck') has parent 5; a parent must be an earlier joint"));
+  CHECK_THAT(load_error([](json& d) { d["skeleton"]["parents"].erase(20); }),
+             ContainsSubstring("skeleton.parents has 20 entries, expected 21"));
+  CHECK_THAT(load_error([](json& d) { d["skeleton"]["rest_offsets"][2] = json::array({0, 1}); }),
+             ContainsSubstring("skeleton.rest_offsets[2] must be [x, y, z]"));
+  CHECK_THAT(load_error([](json& d) { d["features"]["slices"]["rotation_6d"] = json::array({5, 130}); }),
+             ContainsSubstring("features.slices: feature layout: 'rotation_6d'"));
+  CHECK_THAT(load_error([](json& d) { d["features"]["size"] = 259; }),
+             ContainsSubstring("features.size is 259, expected 258"));
+  CHECK_THAT(load_error([](json& d) { d["features"]["contact_joints"][1] = "Toe_L"; }),
+             ContainsSubstring("features.contact_joints[1] is 'Toe_L', which is not a joint"));
+  CHECK_THAT(load_error([](json& d) { d["diffusion"]["alphas_cumprod"].erase(9); }),
+             ContainsSubstring("diffusion.alphas_cumprod has 9 entries, expected 10"));
+  CHECK_THAT(load_error([](json& d) { d["diffusion"]["alphas_cumprod"][3] = 1.5; }),
+             ContainsSubstring("diffusion.alphas_cumprod[3] is 1.5, expected 0 < value < 1"));
+  CHECK_THAT(load_error([](json& d) { d["diffusion"]["prediction"] = "eps"; }),
+             ContainsSubstring("diffusion.prediction is 'eps', expected 'x0'"));
+  CHECK_THAT(load_error([](json& d) { d["sampling"]["default_steps"] = 0; }),
+             ContainsSubstring("sampling.default_steps is 0, expected 1..10"));
+  CHECK_THAT(load_error([](json& d) { d["sampling"]["w_text"] = "two"; }),
+             ContainsSubstring("sampling.w_text must be a number"));
+  CHECK_THAT(load_error([](json& d) { d["text"]["special_tokens"]["unk"]["id"] = 7; }),
+             ContainsSubstring("text.special_tokens.unk.id is 7, but") && ContainsSubstring("at id 100"));
+  CHECK_THAT(
+      load_error([](json& d) { d["text"]["embedding_size"] = 16; }),
+      ContainsSubstring("graphs.denoiser.inputs 'text_embedding' is float32 [batch, 8], expected float32 [B, 16"));
+}
+
+TEST_CASE("model.json graph signatures are checked against the contract and the graphs", "[package][errors]") {
+  // model.json disagrees with the contract (sizes).
+  CHECK_THAT(load_error([](json& d) { d["graphs"]["denoiser"]["inputs"][0]["shape"][2] = 30; }),
+             ContainsSubstring("graphs.denoiser.inputs 'x_t' is float32 [batch, 10, 30], expected float32 [B, 10 "
+                               "(tokens.window), 28 (tokens.token_dim)]"));
+  CHECK_THAT(load_error([](json& d) { d["graphs"]["denoiser"]["inputs"].erase(3); }),
+             ContainsSubstring("graphs.denoiser.inputs has no input 'text_keep'"));
+  CHECK_THAT(load_error([](json& d) { d["graphs"]["denoiser"]["inputs"][5]["shape"][1] = "future"; }),
+             ContainsSubstring("'history_mask' names axis 1 'future', but another input names the same axis (H) "
+                               "'history'"));
+  CHECK_THAT(load_error([](json& d) { d["graphs"]["decoder"]["outputs"][0]["dtype"] = "float64"; }),
+             ContainsSubstring("graphs.decoder.outputs 'body' is float64"));
+  // model.json agrees with the contract but not with the graph file.
+  CHECK_THAT(load_error([](json& d) { d["graphs"]["decoder"]["inputs"][0]["shape"][1] = "frames"; }),
+             ContainsSubstring("decoder.onnx (graph 'decoder'): signature mismatch: input 'tokens' is float32 "
+                               "[batch, tokens, 28] in the graph, but") &&
+                 ContainsSubstring("declares float32 [batch, frames, 28]"));
+  CHECK_THAT(load_error([](json& d) { d["graphs"]["encoder"]["outputs"][0]["name"] = "codes"; }),
+             ContainsSubstring("graphs.encoder.outputs has no output 'latent'"));
+}
+
+TEST_CASE("broken model.json text and the package stays loadable afterwards", "[package][errors]") {
+  PackageFiles files = tiny_files();
+  files["model.json"] = "{ not json";
+  CHECK_THAT(error_message([&] { load(files); }), ContainsSubstring("tiny/model.json: not valid JSON"));
+  files["model.json"] = "[1, 2]";
+  CHECK_THAT(error_message([&] { load(files); }), ContainsSubstring("expected a JSON object"));
+  // Nothing is left behind by the failures above.
+  const ModelPackage package = load(tiny_files());
+  CHECK(package.tokens().window == 10);
+  CHECK(run_golden_denoiser(package).size() == 3 * 10 * 28);
+}
