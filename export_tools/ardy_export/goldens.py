@@ -112,7 +112,10 @@ class OnnxTextEmbedder:
 
 
 def constraint_to_json(constraint: Constraint) -> dict[str, Any]:
-    """Frame-level JSON of a world-space constraint (what the C++ parity test reads)."""
+    """Frame-level JSON of a world-space constraint (what the C++ parity test reads).
+
+    Values are written at the precision the reference used (float64 except the keyframe's
+    float32 features), so the runtime rasterizes exactly the same numbers."""
     if isinstance(constraint, RootWaypoint):
         return {
             "type": "waypoint",
@@ -125,10 +128,10 @@ def constraint_to_json(constraint: Constraint) -> dict[str, Any]:
         return {
             "type": "path",
             "start_frame": constraint.start_frame,
-            "positions": np.asarray(constraint.positions, np.float32).tolist(),
+            "positions": np.asarray(constraint.positions, np.float64).tolist(),
             "headings": None
             if constraint.headings is None
-            else np.asarray(constraint.headings, np.float32).tolist(),
+            else np.asarray(constraint.headings, np.float64).tolist(),
         }
     if isinstance(constraint, PoseKeyframe):
         return {
@@ -144,10 +147,10 @@ def constraint_to_json(constraint: Constraint) -> dict[str, Any]:
             "joint": constraint.joint,
             "position": None
             if constraint.position is None
-            else np.asarray(constraint.position, np.float32).tolist(),
+            else np.asarray(constraint.position, np.float64).tolist(),
             "rotation": None
             if constraint.rotation is None
-            else np.asarray(constraint.rotation, np.float32).tolist(),
+            else np.asarray(constraint.rotation, np.float64).tolist(),
         }
     if isinstance(constraint, FootContact):
         return {
