@@ -760,7 +760,41 @@ std::unique_ptr<ModelPackage::Impl> ModelPackage::Impl::load(const FileSource& s
   return impl;
 }
 
+// Files read on demand through a caller's function (an engine's file system).
+class ReaderSource final : public FileSource {
+ public:
+  ReaderSource(const PackageFileReader& read, std::string name) : read_(read), name_(std::move(name)) {}
+
+  std::string where(const std::string& file) const override { return name_ + "/" + file; }
+
+  std::string read(const std::string& file, const std::string& expected, size_t max_bytes) const override {
+    std::string bytes = read_(file);
+    if (bytes.size() > max_bytes) {
+      throw Error(where(file) + ": " + std::to_string(bytes.size()) + " bytes, larger than the " +
+                  std::to_string(max_bytes) + " bytes allowed for " + expected);
+    }
+    return bytes;
+  }
+
+  OnnxSession session(std::shared_ptr<OnnxEnvironment> env, const std::string& file,
+                      const SessionOptions& options) const override {
+    const std::string bytes = read(file, "an ONNX model", kMaxGraphBytes);
+    return OnnxSession::from_memory(std::move(env), bytes.data(), bytes.size(), where(file), options);
+  }
+
+ private:
+  const PackageFileReader& read_;
+  std::string name_;
+};
+
 // ---------------------------------------------------------------------------
+
+ModelPackage ModelPackage::from_reader(const PackageFileReader& read, const std::string& name,
+                                       const PackageOptions& options) {
+  if (!read) throw Error(name + ": no file reader given");
+  const ReaderSource source(read, name);
+  return ModelPackage(Impl::load(source, name, options));
+}
 
 ModelPackage ModelPackage::from_folder(const std::string& folder, const PackageOptions& options) {
   std::error_code ec;

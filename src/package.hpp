@@ -20,6 +20,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -88,6 +89,9 @@ struct ByteView {
 // File name (as model.json names it, e.g. "denoiser.onnx") -> bytes.
 using PackageFiles = std::map<std::string, std::string>;
 using PackageFileViews = std::map<std::string, ByteView>;
+// Returns the bytes of one package file (e.g. "denoiser.onnx"), or throws
+// ardy::Error naming it; how an engine reads from its own file system.
+using PackageFileReader = std::function<std::string(const std::string& file)>;
 
 struct PackageOptions {
   SessionOptions session;  // intra-op threads of every graph
@@ -109,6 +113,10 @@ class ModelPackage {
   static ModelPackage from_memory(const PackageFiles& files, const std::string& name = "package",
                                   const PackageOptions& options = {});
   static ModelPackage from_memory(const PackageFileViews& files, const std::string& name = "package",
+                                  const PackageOptions& options = {});
+  // Loads model.json and then each file it names through `read` (only the
+  // files the package needs are read). `name` names the package in errors.
+  static ModelPackage from_reader(const PackageFileReader& read, const std::string& name,
                                   const PackageOptions& options = {});
 
   ModelPackage(ModelPackage&&) noexcept;

@@ -35,7 +35,6 @@ Wrapped *make_engine_wrapper(GDExtensionObjectPtr owner) {
 		{ &Node3D::get_class_tag, &make_wrapper<Node3D> },
 		{ &Node::get_class_tag, &make_wrapper<Node> },
 		{ &FileAccess::get_class_tag, &make_wrapper<FileAccess> },
-		{ &DirAccess::get_class_tag, &make_wrapper<DirAccess> },
 		{ &RefCounted::get_class_tag, &make_wrapper<RefCounted> },
 		{ &Engine::get_class_tag, &make_wrapper<Engine> },
 	};
@@ -191,22 +190,6 @@ PackedByteArray FileAccess::get_buffer(int64_t length) const {
 
 Error FileAccess::get_error() const {
 	return static_cast<Error>(call_engine<int64_t>(ARDY_ENGINE_METHOD(FileAccess, get_error), _owner));
-}
-
-Ref<DirAccess> DirAccess::open(const String &path) {
-	return call_engine<Ref<DirAccess>>(ARDY_ENGINE_METHOD(DirAccess, open), nullptr, path);
-}
-
-Error DirAccess::get_open_error() {
-	return static_cast<Error>(call_engine<int64_t>(ARDY_ENGINE_METHOD(DirAccess, get_open_error), nullptr));
-}
-
-bool DirAccess::dir_exists_absolute(const String &path) {
-	return call_engine<bool>(ARDY_ENGINE_METHOD(DirAccess, dir_exists_absolute), nullptr, path);
-}
-
-PackedStringArray DirAccess::get_files() {
-	return call_engine<PackedStringArray>(ARDY_ENGINE_METHOD(DirAccess, get_files), _owner);
 }
 
 Engine *Engine::get_singleton() {

@@ -75,16 +75,6 @@ public:
 	Error get_error() const;
 };
 
-class DirAccess : public RefCounted {
-	GDENGINECLASS(DirAccess, RefCounted)
-
-public:
-	static Ref<DirAccess> open(const String &path);
-	static Error get_open_error();
-	static bool dir_exists_absolute(const String &path);
-	PackedStringArray get_files();
-};
-
 // The Engine singleton.
 class Engine : public Object {
 	GDENGINECLASS(Engine, Object)

@@ -15,52 +15,18 @@ bool ends_with(const std::string &text, const std::string &suffix) {
 	return text.size() >= suffix.size() && text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-std::string join_path(const std::string &folder, const std::string &file) {
-	return ends_with(folder, "/") ? folder + file : folder + "/" + file;
-}
-
 // Reads a whole file through the engine, so paths inside an exported .pck work.
-bool read_engine_file(const std::string &path, PackedByteArray &r_bytes, std::string &r_error) {
+std::string read_engine_file(const std::string &path) {
 	Ref<FileAccess> file = FileAccess::open(String(path), FileAccess::READ);
 	if (file.is_null()) {
-		r_error = "cannot open '" + path + "': " + error_string(FileAccess::get_open_error()).utf8();
-		return false;
+		throw Error("cannot open '" + path + "': " + error_string(FileAccess::get_open_error()).utf8());
 	}
 	const uint64_t length = file->get_length();
-	r_bytes = file->get_buffer(static_cast<int64_t>(length));
-	if (static_cast<uint64_t>(r_bytes.size()) != length || file->get_error() != OK) {
-		r_error = "cannot read '" + path + "': " + error_string(file->get_error()).utf8();
-		return false;
+	const PackedByteArray bytes = file->get_buffer(static_cast<int64_t>(length));
+	if (static_cast<uint64_t>(bytes.size()) != length || file->get_error() != OK) {
+		throw Error("cannot read '" + path + "': " + error_string(file->get_error()).utf8());
 	}
-	return true;
-}
-
-// The .onnx graphs a model path names: the file itself, or every .onnx file
-// of the folder, sorted.
-bool list_graph_files(const std::string &path, std::vector<std::string> &r_files, std::string &r_error) {
-	if (ends_with(path, ".onnx")) {
-		r_files.push_back(path);
-		return true;
-	}
-	Ref<DirAccess> folder = DirAccess::open(String(path));
-	if (folder.is_null()) {
-		r_error = "model folder '" + path + "' cannot be opened: " + error_string(DirAccess::get_open_error()).utf8() +
-				" (set model_path to a model package folder or to an .onnx file)";
-		return false;
-	}
-	const PackedStringArray files = folder->get_files();
-	for (int64_t i = 0; i < files.size(); ++i) {
-		const std::string name = files[i].utf8();
-		if (ends_with(name, ".onnx")) {
-			r_files.push_back(join_path(path, name));
-		}
-	}
-	std::sort(r_files.begin(), r_files.end());
-	if (r_files.empty()) {
-		r_error = "model folder '" + path + "' holds no .onnx graph";
-		return false;
-	}
-	return true;
+	return std::string(reinterpret_cast<const char *>(bytes.ptr()), static_cast<size_t>(bytes.size()));
 }
 
 std::string file_name(const std::string &path) {
@@ -110,33 +76,35 @@ bool MotionGenerator::load_model(const String &path) {
 		fail("load_model: no model path given and model_path is empty");
 		return false;
 	}
-	std::vector<std::string> files;
-	std::string error;
-	if (!list_graph_files(requested, files, error)) {
-		fail("load_model: " + error);
-		return false;
-	}
 	try {
 		if (!onnx_environment_) {
 			onnx_environment_ = OnnxEnvironment::create();
 		}
-		std::vector<OnnxSession> sessions;
-		std::vector<std::string> names;
-		for (const std::string &file : files) {
-			PackedByteArray bytes;
-			if (!read_engine_file(file, bytes, error)) {
-				fail("load_model: " + error);
-				return false;
+		PackageOptions options;
+		options.environment = onnx_environment_;
+		if (ends_with(requested, ".onnx")) {
+			const std::string bytes = read_engine_file(requested);
+			if (bytes.empty()) {
+				throw Error("'" + requested + "' is empty, not an ONNX graph");
 			}
-			if (bytes.is_empty()) {
-				fail("load_model: '" + file + "' is empty, not an ONNX graph");
-				return false;
+			std::vector<OnnxSession> graphs;
+			graphs.push_back(OnnxSession::from_memory(onnx_environment_, bytes.data(), bytes.size(), requested));
+			lone_graphs_ = std::move(graphs);
+			package_.reset();
+			graph_names_ = { file_name(requested) };
+		} else {
+			const std::string folder = ends_with(requested, "/") ? requested : requested + "/";
+			const PackageFileReader read = [&folder](const std::string &file) { return read_engine_file(folder + file); };
+			auto package = std::make_shared<const ModelPackage>(ModelPackage::from_reader(read, requested, options));
+			std::vector<std::string> names;
+			for (const char *key : { "denoiser", "decoder", "encoder", "text_encoder" }) {
+				names.push_back(package->graph_spec(key).file);
 			}
-			sessions.push_back(OnnxSession::from_memory(onnx_environment_, bytes.ptr(), static_cast<size_t>(bytes.size()), file));
-			names.push_back(file_name(file));
+			std::sort(names.begin(), names.end());
+			package_ = std::move(package);
+			lone_graphs_.clear();
+			graph_names_ = std::move(names);
 		}
-		graphs_ = std::move(sessions);
-		graph_names_ = std::move(names);
 	} catch (const std::exception &failure) {
 		fail(std::string("load_model: ") + failure.what());
 		return false;
@@ -147,13 +115,23 @@ bool MotionGenerator::load_model(const String &path) {
 }
 
 bool MotionGenerator::is_model_loaded() const {
-	return !graphs_.empty();
+	return package_ != nullptr || !lone_graphs_.empty();
 }
 
 PackedStringArray MotionGenerator::get_loaded_graphs() const {
 	PackedStringArray names;
 	for (const std::string &name : graph_names_) {
 		names.push_back(String(name));
+	}
+	return names;
+}
+
+PackedStringArray MotionGenerator::get_joint_names() const {
+	PackedStringArray names;
+	if (package_) {
+		for (const std::string &name : package_->skeleton().names()) {
+			names.push_back(String(name));
+		}
 	}
 	return names;
 }
@@ -240,6 +218,7 @@ void MotionGenerator::_bind_methods() {
 	ClassDB::bind_method(D_METHOD("load_model", "path"), &MotionGenerator::load_model, DEFVAL(String()));
 	ClassDB::bind_method(D_METHOD("is_model_loaded"), &MotionGenerator::is_model_loaded);
 	ClassDB::bind_method(D_METHOD("get_loaded_graphs"), &MotionGenerator::get_loaded_graphs);
+	ClassDB::bind_method(D_METHOD("get_joint_names"), &MotionGenerator::get_joint_names);
 	ClassDB::bind_method(D_METHOD("get_last_error"), &MotionGenerator::get_last_error);
 	ClassDB::bind_method(D_METHOD("apply_joint_rotations", "rotations"), &MotionGenerator::apply_joint_rotations);
 

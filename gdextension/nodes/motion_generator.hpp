@@ -5,6 +5,7 @@
 #include "godot/class_db.hpp"
 
 #include "onnx_session.hpp"
+#include "package.hpp"
 
 #include <memory>
 #include <string>
@@ -28,12 +29,15 @@ public:
 	void set_playing(bool playing);
 	bool is_playing() const;
 
-	// Loads every graph of the model at `path` (a folder or one .onnx file;
-	// empty means model_path). Returns false and emits generation_failed with
-	// the reason when anything is wrong; the previous model stays loaded.
+	// Loads the model package at `path` (a folder with model.json; a single
+	// .onnx file loads just that graph, to check it; empty means model_path).
+	// Returns false and emits generation_failed with the reason when anything
+	// is wrong; the previous model stays loaded.
 	bool load_model(const godot::String &path);
 	bool is_model_loaded() const;
 	godot::PackedStringArray get_loaded_graphs() const;
+	// The model skeleton's joints, in the model's order (empty without a package).
+	godot::PackedStringArray get_joint_names() const;
 	godot::String get_last_error() const;
 
 	// Sets the local rotation of skeleton bones by name ({"Hips": Quaternion});
@@ -56,8 +60,9 @@ private:
 	bool playing_ = false;
 
 	std::shared_ptr<OnnxEnvironment> onnx_environment_;
+	std::shared_ptr<const ModelPackage> package_;
+	std::vector<OnnxSession> lone_graphs_;  // a single .onnx file loaded on its own
 	std::vector<std::string> graph_names_;
-	std::vector<OnnxSession> graphs_;
 	std::string last_error_;
 };
 

@@ -4,6 +4,8 @@
 
 #include <catch_amalgamated.hpp>
 
+#include <algorithm>
+
 #include <filesystem>
 #include <functional>
 #include <fstream>
@@ -125,6 +127,30 @@ TEST_CASE("a package from memory buffers behaves like the folder", "[package]") 
   ModelPackage moved = std::move(from_views);
   CHECK(moved.tokens().window == 10);
   CHECK_THAT(error_message([&] { from_views.tokens(); }), ContainsSubstring("moved from"));
+}
+
+TEST_CASE("a package read through a file reader loads only what model.json names", "[package]") {
+  const ardy::PackageFiles files = tiny_files();
+  std::vector<std::string> asked;
+  const ardy::PackageFileReader read = [&](const std::string& file) {
+    asked.push_back(file);
+    const auto it = files.find(file);
+    if (it == files.end()) throw ardy::Error("res://tiny/" + file + ": file not found");
+    return it->second;
+  };
+  const ModelPackage package = ModelPackage::from_reader(read, "res://tiny", one_thread());
+  const ModelPackage from_folder = ModelPackage::from_folder(tiny_package_dir(), one_thread());
+  CHECK(run_golden_denoiser(package) == run_golden_denoiser(from_folder));
+  CHECK(asked.front() == "model.json");
+  CHECK(std::find(asked.begin(), asked.end(), "goldens.bin") == asked.end());
+  CHECK(asked.size() == 6);  // model.json, four graphs, vocab.txt
+  // A reader that fails names the file; nothing is left half-loaded.
+  const ardy::PackageFileReader broken = [&](const std::string& file) -> std::string {
+    if (file == "decoder.onnx") throw ardy::Error("res://tiny/decoder.onnx: file not found");
+    return files.at(file);
+  };
+  CHECK_THAT(error_message([&] { ModelPackage::from_reader(broken, "res://tiny", one_thread()); }),
+             ContainsSubstring("decoder.onnx: file not found"));
 }
 
 TEST_CASE("missing files are named", "[package][errors]") {

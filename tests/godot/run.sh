@@ -20,7 +20,8 @@ mkdir -p "$PROJECT/addons" "$PROJECT/fixtures/model"
 cp -r "$ADDON" "$PROJECT/addons/"
 rm -rf "$PROJECT/addons/ardy/models"
 cp "$ROOT/tests/data/foundation/mlp.onnx" "$PROJECT/fixtures/mlp.onnx"
-cp "$ROOT/tests/data/foundation/mlp.onnx" "$PROJECT/fixtures/model/mlp.onnx"
+# The tiny test package (model.json, graphs, vocabulary) as a model folder.
+cp "$ROOT"/tests/data/tiny_package/{model.json,*.onnx,vocab.txt} "$PROJECT/fixtures/model/"
 
 godot() { timeout 300 "$GODOT" --headless "$@"; }
 

@@ -22,6 +22,14 @@ func _ready() -> void:
 			loaded,
 			"load_model reads the graph from the pack: " + str(generator.call("get_last_error"))
 		)
+		loaded = generator.call("load_model", "res://fixtures/model")
+		_check(
+			loaded,
+			(
+				"load_model reads a model package from the pack: "
+				+ str(generator.call("get_last_error"))
+			)
+		)
 		generator.free()
 	print("%d passed, %d failed" % [passed, failed])
 	get_tree().quit(failed)

@@ -4,6 +4,7 @@ extends TestCase
 
 const GRAPH := "res://fixtures/mlp.onnx"
 const MODEL_FOLDER := "res://fixtures/model"
+const PACKAGE_GRAPHS := ["decoder.onnx", "denoiser.onnx", "encoder.onnx", "text_encoder.onnx"]
 
 
 func test_instanced_from_gdscript() -> void:
@@ -30,7 +31,8 @@ func test_instanced_from_scene_and_ready_loads_model() -> void:
 	await tree.process_frame
 	# _ready (a virtual override) loads model_path because playing is on.
 	check(generator.is_model_loaded(), "_ready loaded the model: " + generator.get_last_error())
-	check_eq(generator.get_loaded_graphs(), PackedStringArray(["mlp.onnx"]), "graphs of the folder")
+	check_eq(generator.get_loaded_graphs(), PACKAGE_GRAPHS, "graphs of the package")
+	check_eq(generator.get_joint_names().size(), 21, "the package's skeleton")
 	character.free()
 
 
@@ -225,4 +227,30 @@ func test_malformed_model_gives_clear_error_and_keeps_previous() -> void:
 	check_eq(generator.get_loaded_graphs(), PackedStringArray(["mlp.onnx"]), "previous graphs kept")
 	check(generator.load_model(GRAPH), "still usable after failures")
 	check_eq(generator.get_last_error(), "", "success clears the error")
+	generator.free()
+
+
+func test_model_package_loads_and_is_validated() -> void:
+	var generator := MotionGenerator.new()
+	check(generator.load_model(MODEL_FOLDER), "the package loads: " + generator.get_last_error())
+	check_eq(generator.get_joint_names()[0], "Hips", "first joint")
+	check(generator.get_joint_names().has("Hand_R"), "joints by name")
+	# A copy of the package with a broken model.json is refused with the field named.
+	var broken := "user://broken_package"
+	DirAccess.make_dir_recursive_absolute(broken)
+	for file in DirAccess.get_files_at(MODEL_FOLDER):
+		var bytes := FileAccess.get_file_as_bytes(MODEL_FOLDER.path_join(file))
+		var copy := FileAccess.open(broken.path_join(file), FileAccess.WRITE)
+		if file == "model.json":
+			var text := bytes.get_string_from_utf8().replace('"token_dim": 28', '"token_dim": 30')
+			copy.store_string(text)
+		else:
+			copy.store_buffer(bytes)
+		copy.close()
+	check_eq(generator.load_model(broken), false, "a wrong token_dim is refused")
+	check(generator.get_last_error().contains("tokens.token_dim"), generator.get_last_error())
+	check_eq(generator.get_loaded_graphs(), PACKAGE_GRAPHS, "the good package stays loaded")
+	# A folder without model.json says so.
+	check_eq(generator.load_model("res://scenes"), false, "no package in res://scenes")
+	check(generator.get_last_error().contains("model.json"), generator.get_last_error())
 	generator.free()
