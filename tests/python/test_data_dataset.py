@@ -154,3 +154,8 @@ def test_compact_copy_rebuilds_the_features(small_source: Path, tmp_path: Path) 
         assert error[:, POS_SLICE].max() < 1e-5, name
         assert error[:, JOINT_VEL_SLICE].mean() < 2e-2, name
         assert np.array_equal(again.features[:, CONTACT_SLICE], clip.features[:, CONTACT_SLICE])
+    pack_compact(out, tmp_path / "train_only", split="train")
+    unpack_compact(tmp_path / "train_only", tmp_path / "train_rebuilt")
+    train = load_clips(tmp_path / "train_rebuilt")
+    assert {c.name for c in train} == {c.name for c in original.values() if c.split == "train"}
+    assert len(train) < len(original)

@@ -205,7 +205,7 @@ def _pack_compact(args: argparse.Namespace) -> int:
     config = load_data_config(args.config)
     processed = Path(args.processed or config.out)
     try:
-        sizes = pack_compact(processed, args.out)
+        sizes = pack_compact(processed, args.out, args.split)
     except FileNotFoundError as error:
         print(f"ardy-export data pack-compact: {error} (run 'data prepare' first)", file=sys.stderr)
         return 1
@@ -313,6 +313,7 @@ def add_data_commands(commands: argparse._SubParsersAction) -> None:
     common(pack)
     pack.add_argument("--processed", help="prepared dataset folder (default: config out)")
     pack.add_argument("--out", default="data/compact", help="output folder (default: %(default)s)")
+    pack.add_argument("--split", choices=("train", "test"), help="keep only this split's clips")
     pack.set_defaults(handler=_pack_compact)
 
     unpack = sub.add_parser(

@@ -41,17 +41,28 @@ def bone_vectors(global_rotations: np.ndarray, positions: np.ndarray) -> np.ndar
     return offsets
 
 
-def pack_compact(processed_dir: str | Path, out_dir: str | Path) -> dict[str, float]:
-    """Writes ``out_dir/compact.npz`` and the index files; returns sizes in bytes."""
+def pack_compact(
+    processed_dir: str | Path, out_dir: str | Path, split: str | None = None
+) -> dict[str, float]:
+    """Writes ``out_dir/compact.npz`` and the index files; returns sizes in bytes.
+
+    ``split`` ("train" or "test") keeps only that split's clips (a training machine needs
+    only the training clips)."""
     processed_dir, out_dir = Path(processed_dir), Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
+    index = json.loads((processed_dir / INDEX_FILE).read_text(encoding="utf-8"))
+    wanted = {e["name"] for e in index["clips"] if split is None or e["split"] == split}
     with np.load(processed_dir / CLIPS_FILE) as data:
         features = data["features"]
-        starts = data["starts"]
-        names = data["names"]
+        all_starts = data["starts"]
+        all_names = data["names"]
+    keep = [k for k in range(len(all_names)) if str(all_names[k]) in wanted]
+    names = all_names[keep]
+    lengths = [int(all_starts[k + 1] - all_starts[k]) for k in keep]
+    starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
     quaternions, roots, contacts, offsets = [], [], [], []
-    for k in range(len(starts) - 1):
-        clip = features[starts[k] : starts[k + 1]].astype(np.float64)
+    for k in keep:
+        clip = features[all_starts[k] : all_starts[k + 1]].astype(np.float64)
         global_rotations, positions = motion_from_features(clip)
         local = local_from_global_rotations(global_rotations, PARENTS)
         q = matrix_to_quaternion(local)
@@ -70,6 +81,8 @@ def pack_compact(processed_dir: str | Path, out_dir: str | Path) -> dict[str, fl
     )
     for name in _SIDE_FILES:
         shutil.copyfile(processed_dir / name, out_dir / name)
+    index["clips"] = [e for e in index["clips"] if e["name"] in wanted]
+    (out_dir / INDEX_FILE).write_text(json.dumps(index, indent=1) + "\n", encoding="utf-8")
     return {
         "clips_npz_bytes": float((processed_dir / CLIPS_FILE).stat().st_size),
         "compact_bytes": float(
