@@ -34,6 +34,7 @@ from ardy_export.models.graphs import (
     ENCODER_OUTPUTS,
     example_denoiser_inputs,
 )
+from ardy_export.onnx_files import save_clean
 from ardy_export.sampling.sampler import ModelBundle
 from ardy_export.text.export import export_text_encoder
 
@@ -122,7 +123,7 @@ def _name_symbolic_axes(
         for dim in by_name[name].type.tensor_type.shape.dim:
             if dim.dim_param in renamed:
                 dim.dim_param = renamed[dim.dim_param]
-    onnx.save(model, str(path))
+    save_clean(model, path)
 
 
 def _io_signature(path: Path) -> dict[str, list[dict[str, Any]]]:

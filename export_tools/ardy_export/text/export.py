@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ardy_export.onnx_files import save_clean
 from ardy_export.text import encoder as text_encoder
 from ardy_export.text import sentences as text_sentences
 from ardy_export.text.encoder import EMBEDDING_SIZE, MAX_TOKENS, MODEL_NAME
@@ -286,7 +287,7 @@ def _export_graph(module: torch.nn.Module, path: Path, embedding_size: int, opse
         f"{MODEL_NAME} sentence encoder: mean pooling over attention_mask + L2 normalization"
     )
     onnx.checker.check_model(model)
-    onnx.save_model(model, str(path))
+    save_clean(model, path)
 
 
 def _parity_error(
