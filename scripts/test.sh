@@ -61,7 +61,7 @@ record "python" "$py_passed" "$py_failed"
 
 echo "== Lint (ruff, gdlint)"
 lint_failed=0
-.venv/bin/ruff check export_tools tests/python src/tools gdextension/godot/tools tests/godot || lint_failed=$((lint_failed + 1))
+.venv/bin/ruff check export_tools tests/python src/tools gdextension/godot/tools tests/godot bench || lint_failed=$((lint_failed + 1))
 mapfile -t gd_files < <(git ls-files '*.gd')
 if [ ${#gd_files[@]} -gt 0 ]; then
   .venv/bin/gdlint "${gd_files[@]}" || lint_failed=$((lint_failed + 1))

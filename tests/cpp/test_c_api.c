@@ -1,0 +1,344 @@
+/* The C ABI (src/ardy_c.h) from C11 against libardy_c and the tiny test
+ * package: library queries, loading from a folder and from memory buffers,
+ * the planner's commands and playback, and the error paths (bad paths, NULL
+ * arguments, NaN, bad prompts, unknown joints, small buffers). */
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ardy_c.h"
+
+#ifndef ARDY_TEST_DATA_DIR
+#error "ARDY_TEST_DATA_DIR must be defined by the build"
+#endif
+
+static int g_checks = 0;
+static int g_failures = 0;
+
+#define CHECK(cond)                                                   \
+  do {                                                                \
+    ++g_checks;                                                       \
+    if (!(cond)) {                                                    \
+      ++g_failures;                                                   \
+      fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond); \
+    }                                                                 \
+  } while (0)
+
+#define CHECK_STATUS(expr, expected)                                                         \
+  do {                                                                                       \
+    ardy_status s_ = (expr);                                                                 \
+    ++g_checks;                                                                              \
+    if (s_ != (expected)) {                                                                  \
+      ++g_failures;                                                                          \
+      fprintf(stderr, "%s:%d: %s returned %s, expected %s\n", __FILE__, __LINE__, #expr,     \
+              ardy_status_name(s_), ardy_status_name(expected));                              \
+    }                                                                                        \
+  } while (0)
+
+#define CHECK_CONTAINS(text, part)                                                                  \
+  do {                                                                                              \
+    const char* t_ = (text);                                                                        \
+    ++g_checks;                                                                                     \
+    if (!t_ || !strstr(t_, (part))) {                                                               \
+      ++g_failures;                                                                                 \
+      fprintf(stderr, "%s:%d: \"%s\" does not contain \"%s\"\n", __FILE__, __LINE__, t_ ? t_ : "(null)", (part)); \
+    }                                                                                               \
+  } while (0)
+
+#define TINY ARDY_TEST_DATA_DIR "/tiny_package"
+
+static void* read_file(const char* path, size_t* size) {
+  FILE* f = fopen(path, "rb");
+  if (!f) return NULL;
+  fseek(f, 0, SEEK_END);
+  long n = ftell(f);
+  fseek(f, 0, SEEK_SET);
+  void* data = malloc(n > 0 ? (size_t)n : 1);
+  if (data && n > 0 && fread(data, 1, (size_t)n, f) != (size_t)n) {
+    free(data);
+    data = NULL;
+  }
+  fclose(f);
+  *size = (size_t)n;
+  return data;
+}
+
+static void test_library(void) {
+  CHECK(strcmp(ardy_version(), "0.1.0") == 0);
+  CHECK(ardy_abi_version() == ARDY_ABI_VERSION);
+  CHECK(strlen(ardy_onnxruntime_version()) > 0);
+  CHECK(strcmp(ardy_status_name(ARDY_ERROR_IO), "ARDY_ERROR_IO") == 0);
+  CHECK(strcmp(ardy_status_name((ardy_status)999), "ARDY_UNKNOWN_STATUS") == 0);
+}
+
+static void test_load_errors(void) {
+  ardy_model* model = (ardy_model*)1;
+  CHECK_STATUS(ardy_model_load_from_folder("/no/such/ardy_package", NULL, &model), ARDY_ERROR_IO);
+  CHECK(model == NULL);
+  CHECK_CONTAINS(ardy_last_error(), "/no/such/ardy_package");
+  CHECK_CONTAINS(ardy_last_error(), "does not exist");
+  CHECK_STATUS(ardy_model_load_from_folder(ARDY_TEST_DATA_DIR, NULL, &model), ARDY_ERROR_IO);
+  CHECK_CONTAINS(ardy_last_error(), "no model.json");
+  CHECK_STATUS(ardy_model_load_from_folder(NULL, NULL, &model), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_last_error(), "path is NULL");
+  CHECK_STATUS(ardy_model_load_from_folder(TINY, NULL, NULL), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_last_error(), "out is NULL");
+  ardy_model_params bad = ardy_model_default_params();
+  bad.intra_op_threads = -3;
+  CHECK_STATUS(ardy_model_load_from_folder(TINY, &bad, &model), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_last_error(), "intra_op_threads is -3");
+  /* Memory: a package without its graphs. */
+  size_t size = 0;
+  void* json = read_file(TINY "/model.json", &size);
+  CHECK(json != NULL);
+  ardy_file_buffer only_json = {"model.json", json, size};
+  CHECK_STATUS(ardy_model_load_from_memory(&only_json, 1, "partial", NULL, &model), ARDY_ERROR_INVALID_MODEL);
+  CHECK_CONTAINS(ardy_last_error(), "partial");
+  CHECK_CONTAINS(ardy_last_error(), ".onnx");
+  ardy_file_buffer twice[2] = {{"model.json", json, size}, {"model.json", json, size}};
+  CHECK_STATUS(ardy_model_load_from_memory(twice, 2, "twice", NULL, &model), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_last_error(), "given twice");
+  CHECK_STATUS(ardy_model_load_from_memory(NULL, 3, "x", NULL, &model), ARDY_ERROR_INVALID_ARGUMENT);
+  free(json);
+  ardy_model_free(NULL); /* no-op */
+}
+
+static ardy_model* load_from_memory(void) {
+  static const char* names[] = {"model.json", "denoiser.onnx", "decoder.onnx", "encoder.onnx",
+                                "text_encoder.onnx", "vocab.txt"};
+  ardy_file_buffer files[6];
+  void* data[6];
+  char path[1024];
+  for (int i = 0; i < 6; ++i) {
+    snprintf(path, sizeof path, "%s/%s", TINY, names[i]);
+    data[i] = read_file(path, &files[i].size);
+    CHECK(data[i] != NULL);
+    files[i].name = names[i];
+    files[i].data = data[i];
+  }
+  ardy_model_params params = ardy_model_default_params();
+  params.intra_op_threads = 1;
+  ardy_model* model = NULL;
+  CHECK_STATUS(ardy_model_load_from_memory(files, 6, "tiny (memory)", &params, &model), ARDY_OK);
+  for (int i = 0; i < 6; ++i) free(data[i]); /* the bytes need not outlive the call */
+  return model;
+}
+
+static void test_model_queries(const ardy_model* model) {
+  CHECK(ardy_model_fps(model) == 20.0);
+  CHECK(ardy_model_window_seconds(model) == 2.0);
+  CHECK(ardy_model_joint_count(model) == 21);
+  CHECK(strcmp(ardy_model_joint_name(model, 0), "Hips") == 0);
+  CHECK(strcmp(ardy_model_joint_name(model, 12), "Hand_R") == 0);
+  CHECK(ardy_model_joint_name(model, 21) == NULL);
+  CHECK(ardy_model_joint_parent(model, 0) == -1);
+  CHECK(ardy_model_joint_parent(model, 1) == 0);
+  CHECK(ardy_model_joint_index(model, "Hand_R") == 12);
+  CHECK(ardy_model_joint_index(model, "Hand") == -1);
+  CHECK(ardy_model_joint_index(model, NULL) == -1);
+  float offset[3];
+  CHECK_STATUS(ardy_model_joint_offset(model, 1, offset), ARDY_OK);
+  CHECK(isfinite(offset[1]));
+  CHECK_STATUS(ardy_model_joint_offset(model, 99, offset), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_model_last_error(model), "joint 99 is out of range");
+  CHECK(ardy_model_contact_count(model) == 4);
+  CHECK(strcmp(ardy_model_contact_name(model, 0), "Foot_L") == 0);
+  CHECK(ardy_model_contact_name(model, 4) == NULL);
+  CHECK(ardy_model_feature_size(model) == 258);
+  CHECK(ardy_model_joint_count(NULL) == 0);
+  CHECK(ardy_model_fps(NULL) == 0.0);
+}
+
+static void test_planner(ardy_model* model) {
+  enum { J = 21, C = 4 };
+  float rotations[J * 4], positions[J * 3], contacts[C];
+  ardy_pose_info info;
+  ardy_planner* planner = NULL;
+
+  ardy_planner_params params = ardy_planner_default_params();
+  CHECK(params.history_seconds == 8.0);
+  CHECK(isnan(params.w_text));
+  params.history_seconds = -1.0;
+  CHECK_STATUS(ardy_planner_create(model, &params, &planner), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK(planner == NULL);
+  CHECK_CONTAINS(ardy_last_error(), "history_seconds");
+  CHECK_STATUS(ardy_planner_create(NULL, NULL, &planner), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_last_error(), "model is NULL");
+
+  params = ardy_planner_default_params();
+  params.start_x = 1.0;
+  params.seed = 7;
+  CHECK_STATUS(ardy_planner_create(model, &params, &planner), ARDY_OK);
+  CHECK_STATUS(ardy_planner_wait_idle(planner, 60.0), ARDY_OK);
+  CHECK(strcmp(ardy_planner_last_error(planner), "") == 0);
+
+  /* Playback. */
+  CHECK_STATUS(ardy_planner_sample_current(planner, &info, rotations, positions, contacts, J, C), ARDY_OK);
+  for (int j = 0; j < J; ++j) {
+    const float* q = rotations + 4 * j;
+    CHECK(fabsf(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3] - 1.0f) < 1e-4f);
+  }
+  CHECK(info.root_position[0] == positions[0] && info.root_position[2] == positions[2]);
+  CHECK(info.window_id == 1);
+  CHECK_STATUS(ardy_planner_sample(planner, 0.33, &info, NULL, NULL, NULL, 0, 0), ARDY_OK);
+  CHECK(fabs(info.time - 0.33) < 1e-9);
+  CHECK_STATUS(ardy_planner_sample(planner, 0.0, NULL, rotations, NULL, NULL, J - 1, 0), ARDY_ERROR_BUFFER_TOO_SMALL);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "hold 20 joints, the model has 21");
+  CHECK_STATUS(ardy_planner_sample(planner, 0.0, NULL, NULL, NULL, contacts, 0, 2), ARDY_ERROR_BUFFER_TOO_SMALL);
+  CHECK_STATUS(ardy_planner_sample(planner, NAN, &info, NULL, NULL, NULL, 0, 0), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_STATUS(ardy_planner_advance(planner, 0.5), ARDY_OK);
+  CHECK(fabs(ardy_planner_time(planner) - 0.5) < 1e-12);
+  CHECK(ardy_planner_queued_seconds(planner) > 1.0);
+  CHECK_STATUS(ardy_planner_advance(planner, NAN), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "advance: delta is NaN");
+  CHECK_STATUS(ardy_planner_advance(planner, -1.0), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK(fabs(ardy_planner_time(planner) - 0.5) < 1e-12);
+
+  /* Prompts. */
+  CHECK_STATUS(ardy_planner_set_prompt(planner, "a person walks forward"), ARDY_OK);
+  CHECK_STATUS(ardy_planner_set_prompt_at(planner, 3.0, "a person runs"), ARDY_OK);
+  CHECK_STATUS(ardy_planner_set_prompt(planner, ""), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "prompt is empty");
+  {
+    char* long_prompt = malloc(10001);
+    memset(long_prompt, 'a', 10000);
+    long_prompt[10000] = '\0';
+    CHECK_STATUS(ardy_planner_set_prompt(planner, long_prompt), ARDY_ERROR_INVALID_ARGUMENT);
+    CHECK_CONTAINS(ardy_planner_last_error(planner), "10000 characters");
+    free(long_prompt);
+  }
+  CHECK_STATUS(ardy_planner_set_prompt_at(planner, INFINITY, "a person runs"), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_STATUS(ardy_planner_set_prompt_at(planner, 5.0, NULL), ARDY_OK); /* no prompt from 5 s on */
+
+  /* Constraints. */
+  uint64_t id = 0, id2 = 0;
+  CHECK_STATUS(ardy_planner_add_waypoint(planner, 2.0, 1.0, 2.0, true, 0.5, &id), ARDY_OK);
+  CHECK(id > 0);
+  CHECK_STATUS(ardy_planner_add_waypoint(planner, 2.0, NAN, 2.0, false, 0.0, &id2), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "x is NaN");
+  const double points[] = {0.0, 0.0, 1.0, 0.0, 1.0, 1.0};
+  CHECK_STATUS(ardy_planner_add_path(planner, 1.0, points, 3, 1.2, true, &id2), ARDY_OK);
+  CHECK(id2 > id);
+  CHECK_STATUS(ardy_planner_add_path(planner, 1.0, points, 1, 1.2, false, NULL), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_STATUS(ardy_planner_add_path(planner, 1.0, NULL, 3, 1.2, false, NULL), ARDY_ERROR_INVALID_ARGUMENT);
+  const double frames[] = {0.0, 0.0, 0.05, 0.0, 0.1, 0.0};
+  const double headings[] = {1.5, 1.5, 1.5};
+  CHECK_STATUS(ardy_planner_add_path_frames(planner, 1.5, frames, 3, headings, NULL), ARDY_OK);
+  const double hand[] = {0.3, 1.4, 0.2};
+  const double identity[] = {0.0, 0.0, 0.0, 1.0};
+  const double root_xz[] = {0.0, 1.0};
+  CHECK_STATUS(ardy_planner_add_joint_target(planner, 1.5, "Hand_R", hand, NULL, NULL, NULL), ARDY_OK);
+  CHECK_STATUS(ardy_planner_add_joint_target(planner, 1.5, "Head", NULL, identity, NULL, NULL), ARDY_OK);
+  CHECK_STATUS(ardy_planner_add_joint_target(planner, 1.5, "Hand_L", hand, identity, root_xz, NULL), ARDY_OK);
+  CHECK_STATUS(ardy_planner_add_joint_target(planner, 1.5, "Hand", hand, NULL, NULL, NULL),
+               ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "unknown joint 'Hand'");
+  CHECK_STATUS(ardy_planner_add_joint_target(planner, 1.5, NULL, hand, NULL, NULL, NULL), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_STATUS(ardy_planner_add_joint_target(planner, 1.5, "Hand_R", NULL, NULL, NULL, NULL),
+               ARDY_ERROR_INVALID_ARGUMENT);
+  const double nan_position[] = {0.0, NAN, 0.0};
+  CHECK_STATUS(ardy_planner_add_joint_target(planner, 1.5, "Hand_R", nan_position, NULL, NULL, NULL),
+               ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "position.y is NaN");
+  /* A keyframe from the pose just sampled. */
+  CHECK_STATUS(ardy_planner_sample(planner, 0.5, &info, rotations, NULL, NULL, J, 0), ARDY_OK);
+  CHECK_STATUS(ardy_planner_add_keyframe(planner, 2.5, info.root_position, info.heading, rotations, J, true, NULL),
+               ARDY_OK);
+  CHECK_STATUS(ardy_planner_add_keyframe(planner, 2.5, info.root_position, info.heading, rotations, J - 1, true, NULL),
+               ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "joint_count is 20");
+  double features[258];
+  for (int i = 0; i < 258; ++i) features[i] = 0.0;
+  CHECK_STATUS(ardy_planner_add_keyframe_features(planner, 2.5, features, 258, false, NULL), ARDY_OK);
+  CHECK_STATUS(ardy_planner_add_keyframe_features(planner, 2.5, features, 3, false, NULL), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "features has 3 values, expected 258");
+  features[7] = NAN;
+  CHECK_STATUS(ardy_planner_add_keyframe_features(planner, 2.5, features, 258, false, NULL), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "features[7] is NaN");
+  const char* feet[] = {"Foot_L", "Toes_L"};
+  CHECK_STATUS(ardy_planner_add_contact(planner, 1.0, 2.0, feet, 2, 1.0, NULL), ARDY_OK);
+  CHECK_STATUS(ardy_planner_add_contact(planner, 1.0, 2.0, NULL, 0, 0.0, NULL), ARDY_OK);
+  const char* bad_feet[] = {"Foot_X"};
+  CHECK_STATUS(ardy_planner_add_contact(planner, 1.0, 2.0, bad_feet, 1, 1.0, NULL), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "unknown foot 'Foot_X'");
+  CHECK_STATUS(ardy_planner_remove_constraint(planner, id), ARDY_OK);
+  CHECK_STATUS(ardy_planner_remove_constraint(planner, 123456), ARDY_OK); /* unknown ids are ignored */
+  CHECK_STATUS(ardy_planner_set_target_velocity(planner, 1.0, 0.5), ARDY_OK);
+  CHECK_STATUS(ardy_planner_set_target_velocity(planner, INFINITY, 0.5), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "vx is inf");
+  CHECK_STATUS(ardy_planner_set_sampling(planner, 99, NAN, NAN), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "steps is 99");
+  CHECK_STATUS(ardy_planner_set_sampling(planner, 2, 1.5f, NAN), ARDY_OK);
+  CHECK_STATUS(ardy_planner_wait_idle(planner, 60.0), ARDY_OK);
+
+  /* Play on: the planner is still usable after all those errors. */
+  for (int i = 0; i < 40; ++i) {
+    CHECK_STATUS(ardy_planner_advance(planner, 0.1), ARDY_OK);
+    CHECK_STATUS(ardy_planner_sample_current(planner, &info, rotations, positions, contacts, J, C), ARDY_OK);
+    CHECK(isfinite(positions[3 * 12 + 1]));
+    CHECK_STATUS(ardy_planner_wait_idle(planner, 60.0), ARDY_OK);
+  }
+  CHECK(fabs(ardy_planner_time(planner) - 4.5) < 1e-9);
+  CHECK_STATUS(ardy_planner_clear_target_velocity(planner), ARDY_OK);
+  CHECK_STATUS(ardy_planner_clear_constraints(planner), ARDY_OK);
+  CHECK_STATUS(ardy_planner_set_prompt(planner, NULL), ARDY_OK);
+  CHECK_STATUS(ardy_planner_wait_idle(planner, 60.0), ARDY_OK);
+
+  ardy_planner_stats stats;
+  CHECK_STATUS(ardy_planner_get_stats(planner, &stats), ARDY_OK);
+  CHECK(stats.windows_published >= 3);
+  CHECK(stats.splices >= 1);
+  CHECK(stats.errors == 0);
+  CHECK(stats.commands >= 20);
+  CHECK(fabs(stats.playhead - 4.5) < 1e-9);
+  CHECK(!stats.window_in_flight);
+  CHECK_STATUS(ardy_planner_get_stats(planner, NULL), ARDY_ERROR_INVALID_ARGUMENT);
+  char message[256];
+  CHECK(!ardy_planner_pop_error(planner, message, sizeof message));
+  CHECK_STATUS(ardy_planner_wait_idle(planner, NAN), ARDY_ERROR_INVALID_ARGUMENT);
+
+  /* NULL handles: a status and the thread-local message, never a crash. */
+  CHECK_STATUS(ardy_planner_set_prompt(NULL, "a person walks"), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_last_error(), "ardy_planner_set_prompt: planner is NULL");
+  CHECK_STATUS(ardy_planner_advance(NULL, 0.1), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_STATUS(ardy_planner_sample_current(NULL, &info, NULL, NULL, NULL, 0, 0), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_STATUS(ardy_planner_add_waypoint(NULL, 1.0, 0.0, 0.0, false, 0.0, NULL), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK(ardy_planner_time(NULL) == 0.0);
+  CHECK(strcmp(ardy_planner_last_error(NULL), "") == 0);
+  CHECK(!ardy_planner_pop_error(NULL, message, sizeof message));
+
+  /* Freed while a window may be in flight: returns within one model call. */
+  CHECK_STATUS(ardy_planner_set_prompt(planner, "a person turns around"), ARDY_OK);
+  ardy_planner_free(planner);
+  ardy_planner_free(NULL);
+}
+
+static void test_planner_outlives_model(void) {
+  ardy_model* model = NULL;
+  CHECK_STATUS(ardy_model_load_from_folder(TINY, NULL, &model), ARDY_OK);
+  ardy_planner* planner = NULL;
+  CHECK_STATUS(ardy_planner_create(model, NULL, &planner), ARDY_OK);
+  ardy_model_free(model); /* the planner keeps the package alive */
+  CHECK_STATUS(ardy_planner_wait_idle(planner, 60.0), ARDY_OK);
+  ardy_pose_info info;
+  CHECK_STATUS(ardy_planner_sample_current(planner, &info, NULL, NULL, NULL, 0, 0), ARDY_OK);
+  CHECK_STATUS(ardy_planner_set_prompt(planner, "a person walks"), ARDY_OK);
+  ardy_planner_free(planner);
+}
+
+int main(void) {
+  test_library();
+  test_load_errors();
+  ardy_model* model = load_from_memory();
+  CHECK(model != NULL);
+  if (model) {
+    test_model_queries(model);
+    test_planner(model);
+    ardy_model_free(model);
+  }
+  test_planner_outlives_model();
+  printf("test_c_api: %d checks, %d failed\n", g_checks, g_failures);
+  return g_failures == 0 ? 0 : 1;
+}
