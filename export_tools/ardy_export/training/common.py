@@ -262,3 +262,57 @@ class Prefetcher:
         self.stop.set()
         if self.thread is not None:
             self.thread.join(timeout=5.0)
+
+
+def run_training_steps(
+    bar: Iterator[int],
+    batches: Prefetcher,
+    device: torch.device,
+    compute_loss: Callable[[dict[str, torch.Tensor]], tuple[torch.Tensor, dict[str, float]]],
+    model: nn.Module,
+    opt: torch.optim.Optimizer,
+    sched: torch.optim.lr_scheduler.LRScheduler,
+    settings: TrainSettings,
+    log: MetricsLog,
+    history: list[dict[str, float]],
+    state: Callable[[int], dict[str, Any]],
+    run_dir: Path,
+    is_main: bool,
+    after_step: Callable[[], None] | None = None,
+) -> tuple[Path, float]:
+    """The optimization loop both trainers share: step, clip, log averaged losses, keep
+    checkpoints, save ``final.pt``. Returns the final checkpoint and the seconds taken."""
+    t0 = time.perf_counter()
+    window: list[dict[str, float]] = []
+    latest = run_dir / "latest.pt"
+    for step in bar:
+        batch = {k: v.to(device) for k, v in next(batches).items()}
+        loss, parts = compute_loss(batch)
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        if settings.grad_clip > 0:
+            torch.nn.utils.clip_grad_norm_(model.parameters(), settings.grad_clip)
+        opt.step()
+        sched.step()
+        if after_step is not None:
+            after_step()
+        window.append(parts)
+        done = step + 1
+        if done % settings.log_every == 0 or done == settings.steps:
+            row = average_parts(window)
+            row["lr"] = sched.get_last_lr()[0]
+            window = []
+            history.append({"step": float(done), **row})
+            log.write(done, row)
+            if hasattr(bar, "set_postfix"):
+                bar.set_postfix({k: f"{v:.4f}" for k, v in row.items() if k != "lr"})
+        if is_main and (done % settings.checkpoint_every == 0 or done == settings.steps):
+            save_checkpoint(latest, state(done))
+            if settings.keep_every and done % settings.keep_every == 0:
+                save_checkpoint(run_dir / f"ckpt_{done:08d}.pt", state(done))
+    batches.close()
+    elapsed = time.perf_counter() - t0
+    final = run_dir / "final.pt"
+    if is_main:
+        save_checkpoint(final, state(settings.steps))
+    return final, elapsed

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 from typing import Any
 
@@ -28,12 +27,11 @@ from ardy_export.training.common import (
     Prefetcher,
     RunContext,
     TrainSettings,
-    average_parts,
     load_config,
     make_optimizer,
     restore_rng,
     rng_state,
-    save_checkpoint,
+    run_training_steps,
     seed_everything,
     setup_run,
     teardown_run,
@@ -219,7 +217,6 @@ def _train(
         }
 
     history: list[dict[str, float]] = []
-    window: list[dict[str, float]] = []
     bar = tqdm(
         range(start, settings.steps),
         initial=start,
@@ -228,7 +225,6 @@ def _train(
         desc="denoiser",
         dynamic_ncols=True,
     )
-    t0 = time.perf_counter()
     net.train()
 
     def make_batch() -> dict[str, torch.Tensor]:
@@ -236,35 +232,22 @@ def _train(
             encoded, rng, settings.batch_size, dcfg, mean, std, bank, csample, wsample
         )
 
-    batches = Prefetcher(make_batch, settings.prefetch)
-    for step in bar:
-        batch = {k: v.to(ctx.device) for k, v in next(batches).items()}
-        loss, parts = denoiser_loss(net, decoder, schedule, batch, loss_ctx, weights, gen)
-        opt.zero_grad(set_to_none=True)
-        loss.backward()
-        if settings.grad_clip > 0:
-            torch.nn.utils.clip_grad_norm_(model.parameters(), settings.grad_clip)
-        opt.step()
-        sched.step()
-        ema.update(model)
-        window.append(parts)
-        done = step + 1
-        if done % settings.log_every == 0 or done == settings.steps:
-            row = average_parts(window)
-            row["lr"] = sched.get_last_lr()[0]
-            window = []
-            history.append({"step": float(done), **row})
-            log.write(done, row)
-            bar.set_postfix({k: f"{v:.4f}" for k, v in row.items() if k != "lr"})
-        if ctx.is_main and (done % settings.checkpoint_every == 0 or done == settings.steps):
-            save_checkpoint(latest, state(done))
-            if settings.keep_every and done % settings.keep_every == 0:
-                save_checkpoint(run_dir / f"ckpt_{done:08d}.pt", state(done))
-    batches.close()
-    elapsed = time.perf_counter() - t0
-    final = run_dir / "final.pt"
-    if ctx.is_main:
-        save_checkpoint(final, state(settings.steps))
+    final, elapsed = run_training_steps(
+        bar,
+        Prefetcher(make_batch, settings.prefetch),
+        ctx.device,
+        lambda batch: denoiser_loss(net, decoder, schedule, batch, loss_ctx, weights, gen),
+        model,
+        opt,
+        sched,
+        settings,
+        log,
+        history,
+        state,
+        run_dir,
+        ctx.is_main,
+        after_step=lambda: ema.update(model),
+    )
     steps_run = settings.steps - start
     return TrainResult(run_dir, final, history, steps_run / elapsed if elapsed > 0 else 0.0)
 
