@@ -335,16 +335,18 @@ def export_package(
     provenance: dict[str, Any] | None = None,
     tiny_text_seed: int | None = None,
     text_max_tokens: int | None = None,
+    text_weights: str = "float32",
 ) -> dict[str, Any]:
     """Writes a complete, checked model package into ``out_dir``; returns its model.json.
 
     ``tiny_text_seed`` puts a tiny random-weight text encoder (same interface and vocabulary)
-    in place of all-MiniLM-L6-v2, for test packages.
+    in place of all-MiniLM-L6-v2, for test packages. ``text_weights`` is the text encoder's
+    weight format (``text.export.WEIGHT_FORMATS``; "int8" for shipped packages).
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     errors = export_graphs(bundle, out)
-    text_kwargs: dict[str, Any] = {"tiny_random_seed": tiny_text_seed}
+    text_kwargs: dict[str, Any] = {"tiny_random_seed": tiny_text_seed, "weights": text_weights}
     if text_max_tokens is not None:
         text_kwargs["max_tokens"] = text_max_tokens
     text = export_text_encoder(out, **text_kwargs)

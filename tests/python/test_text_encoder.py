@@ -308,3 +308,27 @@ def test_label_bank_round_trips_and_feeds_training(encoder: TextEncoder, tmp_pat
     assert np.array_equal(training.embeddings[keys[1]], bank[keys[1]])
     with pytest.raises(ValueError, match="no embeddings for label"):
         TextBank([("dataset-1", "walk", "old")], mode="bank", embedding_cache=path)
+
+
+def test_int8_encoder_is_a_quarter_the_size_and_keeps_the_embeddings(
+    tmp_path: Path, session: ort.InferenceSession, encoder: TextEncoder
+) -> None:
+    import onnx
+
+    settings = text_export.export_text_encoder(tmp_path, weights="int8")
+    path = tmp_path / text_export.GRAPH_FILE
+    assert settings["weights"] == "int8"
+    assert settings["parity_min_cosine"] >= text_export.INT8_MIN_COSINE
+    assert path.stat().st_size < 26_000_000  # float32: 91 MB
+    graph = onnx.load(str(path)).graph
+    weights = {init.name for init in graph.initializer}
+    assert sum(node.op_type == "MatMulNBits" for node in graph.node) == 36  # 6 layers x 6
+    # What stays float32 are the attention products of two activations.
+    float_matmuls = [n for n in graph.node if n.op_type == "MatMul"]
+    assert float_matmuls and not any(set(n.input) & weights for n in float_matmuls)
+    int8 = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    ids, mask = encoder.tokenize_batch(_mixed_texts(120, seed=4))
+    ids, mask = ids.astype(np.int64), mask.astype(np.int64)
+    want, got = _run(session, ids, mask), _run(int8, ids, mask)
+    cosine = (want * got).sum(axis=1)
+    assert cosine.min() > 0.99 and cosine.mean() > 0.998

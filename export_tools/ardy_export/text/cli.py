@@ -65,7 +65,11 @@ def _export(args: argparse.Namespace) -> int:
     from ardy_export.text.export import export_text_encoder
 
     settings = export_text_encoder(
-        args.out, max_tokens=args.max_tokens, opset=args.opset, tiny_random_seed=args.tiny_seed
+        args.out,
+        max_tokens=args.max_tokens,
+        opset=args.opset,
+        tiny_random_seed=args.tiny_seed,
+        weights=args.weights,
     )
     text = json.dumps(settings, indent=1)
     if args.settings:
@@ -94,7 +98,7 @@ def _bank(args: argparse.Namespace) -> int:
 def add_text_commands(commands: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     """Add the ``text`` command group to the top-level subparsers."""
     from ardy_export.text.encoder import MAX_TOKENS
-    from ardy_export.text.export import OPSET
+    from ardy_export.text.export import OPSET, WEIGHT_FORMATS
 
     text = commands.add_parser(
         "text",
@@ -144,6 +148,9 @@ def add_text_commands(commands: argparse._SubParsersAction) -> None:  # type: ig
     p.add_argument("--out", required=True, help="output folder (the model package)")
     p.add_argument("--max-tokens", type=int, default=MAX_TOKENS, help="(default: %(default)s)")
     p.add_argument("--opset", type=int, default=OPSET, help="(default: %(default)s)")
+    p.add_argument(
+        "--weights", choices=WEIGHT_FORMATS, default="float32", help="(default: %(default)s)"
+    )
     p.add_argument(
         "--tiny-seed",
         type=int,

@@ -49,6 +49,15 @@ OPSET = 18
 CASES_FORMAT = 1
 # Largest error accepted between the exported graph (ONNX Runtime) and PyTorch.
 PARITY_ATOL = 1e-4
+# Weight formats of the exported graph. "int8": the embedding tables as int8 (per-tensor) and
+# every MatMul as 8-bit weight-only blocks of 32 (MatMulNBits), activations in float32: 24 MB
+# instead of 91 MB. On the 5,200 label-bank sentences its embeddings keep a cosine similarity
+# of 0.998 (min) / 0.9995 (mean) to float32, and 99.1 % of them keep their nearest label
+# centroid; dynamic int8 MatMuls (activations quantized too) fall to 0.97 / 0.993.
+WEIGHT_FORMATS = ("float32", "int8")
+INT8_BLOCK = 32
+# Smallest cosine similarity accepted between the int8 graph's embeddings and PyTorch's.
+INT8_MIN_COSINE = 0.995
 
 SPECIAL_TOKENS = {"pad": "[PAD]", "unk": "[UNK]", "cls": "[CLS]", "sep": "[SEP]", "mask": "[MASK]"}
 
@@ -290,9 +299,45 @@ def _export_graph(module: torch.nn.Module, path: Path, embedding_size: int, opse
     save_clean(model, path)
 
 
-def _parity_error(
+def _quantize_int8(path: Path) -> None:
+    """Rewrites the float32 graph at ``path`` with int8 weights (see ``WEIGHT_FORMATS``)."""
+    import tempfile
+
+    import onnx
+    from onnxruntime.quantization import QuantType, quantize_dynamic
+    from onnxruntime.quantization.matmul_nbits_quantizer import (
+        DefaultWeightOnlyQuantConfig,
+        MatMulNBitsQuantizer,
+    )
+
+    quant_log = logging.getLogger()
+    level = quant_log.level
+    quant_log.setLevel(logging.ERROR)  # "consider pre-processing" advice, not a problem
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            gathered = Path(tmp) / "gather_int8.onnx"
+            quantize_dynamic(
+                path, gathered, weight_type=QuantType.QInt8, op_types_to_quantize=["Gather"]
+            )
+            config = DefaultWeightOnlyQuantConfig(block_size=INT8_BLOCK, is_symmetric=True, bits=8)
+            quantizer = MatMulNBitsQuantizer(
+                onnx.load(str(gathered)),
+                block_size=INT8_BLOCK,
+                is_symmetric=True,
+                algo_config=config,
+            )
+            quantizer.process()
+            model = quantizer.model.model
+    finally:
+        quant_log.setLevel(level)
+    onnx.checker.check_model(model)
+    save_clean(model, path)
+
+
+def _embeddings(
     module: torch.nn.Module, path: Path, texts: Sequence[str], max_tokens: int
-) -> float:
+) -> tuple[np.ndarray, np.ndarray]:
+    """(ONNX Runtime, PyTorch) embeddings of ``texts`` as one padded batch."""
     import onnxruntime as ort
     import torch
     from transformers import AutoTokenizer
@@ -305,7 +350,7 @@ def _parity_error(
     got = session.run([OUTPUT_NAME], {"input_ids": ids, "attention_mask": mask})[0]
     with torch.inference_mode():
         want = module(torch.from_numpy(ids), torch.from_numpy(mask)).numpy()
-    return float(np.abs(got - want).max())
+    return got, want
 
 
 def export_text_encoder(
@@ -314,23 +359,31 @@ def export_text_encoder(
     opset: int = OPSET,
     tiny_random_seed: int | None = None,
     check: bool = True,
+    weights: str = "float32",
 ) -> dict[str, Any]:
     """Write ``text_encoder.onnx`` and ``vocab.txt`` into ``out_dir``; return the text settings.
 
     ``check`` runs the graph in ONNX Runtime against PyTorch on a padded batch and raises if
-    they differ by more than ``PARITY_ATOL``. ``tiny_random_seed`` exports a tiny random-weight
-    encoder with the same interface and vocabulary instead (a few MB, for test packages).
+    they differ by more than ``PARITY_ATOL`` (float32) or fall below a cosine similarity of
+    ``INT8_MIN_COSINE`` (int8). ``weights`` is one of ``WEIGHT_FORMATS``.
+    ``tiny_random_seed`` exports a tiny random-weight encoder with the same interface and
+    vocabulary instead (a few MB, for test packages).
     """
+    if weights not in WEIGHT_FORMATS:
+        raise ValueError(f"text encoder weights: {weights!r} is not one of {WEIGHT_FORMATS}")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     module = build_pooled_encoder(tiny_random_seed)
     embedding_size = int(module.embeddings.word_embeddings.embedding_dim)
     graph_path = out / GRAPH_FILE
     _export_graph(module, graph_path, embedding_size, opset)
+    if weights == "int8":
+        _quantize_int8(graph_path)
     shutil.copyfile(text_encoder.model_path() / VOCAB_FILE, out / VOCAB_FILE)
     _check_vocab_order(out / VOCAB_FILE)
     settings = text_settings(max_tokens, embedding_size)
     settings["opset"] = opset
+    settings["weights"] = weights
     settings["graph_bytes"] = graph_path.stat().st_size
     if tiny_random_seed is not None:
         settings["encoder"] = f"random tiny BERT (seed {tiny_random_seed}), not {MODEL_NAME}"
@@ -341,13 +394,23 @@ def export_text_encoder(
             "a person waves the right hand happily, looking very pleased with the result",
             "",
         ]
-        error = _parity_error(module, graph_path, texts, max_tokens)
-        if error > PARITY_ATOL:
-            raise RuntimeError(
-                f"{graph_path}: ONNX Runtime differs from PyTorch by {error:.3g} "
-                f"(> {PARITY_ATOL}); the export is wrong"
-            )
-        settings["parity_max_abs_error"] = error
+        got, want = _embeddings(module, graph_path, texts, max_tokens)
+        if weights == "int8":
+            cosine = float((got * want).sum(axis=1).min())
+            if cosine < INT8_MIN_COSINE:
+                raise RuntimeError(
+                    f"{graph_path}: int8 embeddings reach a cosine similarity of only "
+                    f"{cosine:.4f} to PyTorch's (< {INT8_MIN_COSINE}); the quantization is wrong"
+                )
+            settings["parity_min_cosine"] = cosine
+        else:
+            error = float(np.abs(got - want).max())
+            if error > PARITY_ATOL:
+                raise RuntimeError(
+                    f"{graph_path}: ONNX Runtime differs from PyTorch by {error:.3g} "
+                    f"(> {PARITY_ATOL}); the export is wrong"
+                )
+            settings["parity_max_abs_error"] = error
     return settings
 
 

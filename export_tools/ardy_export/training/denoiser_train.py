@@ -14,7 +14,7 @@ from ardy_export.diffusion import DiffusionSchedule
 from ardy_export.models import layout as L
 from ardy_export.models.denoiser import Denoiser, DenoiserConfig
 from ardy_export.models.graphs import DecoderGraph
-from ardy_export.models.tokenizer import BodyTokenizer
+from ardy_export.models.tokenizer import BodyTokenizer, TokenizerConfig
 from ardy_export.training import adapters
 from ardy_export.training.batches import (
     EncodedSequence,
@@ -56,10 +56,12 @@ def encode_sequences(
     yaw_variants: int,
     rng: np.random.Generator,
     device: torch.device,
+    latent_stats: tuple[Any, Any] | None = None,
 ) -> tuple[list[EncodedSequence], np.ndarray, np.ndarray]:
     """Precompute the latent tokens of every sequence under ``yaw_variants`` random yaw
     rotations with the frozen encoder; returns the encoded sequences (latents normalized)
-    and the latent statistics (mean, std, clamped below at 1e-2)."""
+    and the latent statistics (mean, std, clamped below at 1e-2), or ``latent_stats`` when
+    given (fine-tuning keeps the trained model's)."""
     p = tokenizer.config.patch
     out: list[tuple[np.ndarray, np.ndarray, list[Any]]] = []
     tokenizer = tokenizer.to(device)
@@ -72,9 +74,12 @@ def encode_sequences(
             body = torch.from_numpy(((f - mean) / std)[None, :, L.BODY_SLICE].astype(np.float32))
             codes = tokenizer.encode(body.to(device))[0].cpu().numpy()
             out.append((f.astype(np.float32), codes, s.segments))
-    allc = np.concatenate([c for _, c, _ in out])
-    lmean = allc.mean(0).astype(np.float32)
-    lstd = np.maximum(allc.std(0), 1e-2).astype(np.float32)
+    if latent_stats is not None:
+        lmean, lstd = (np.asarray(v, np.float32) for v in latent_stats)
+    else:
+        allc = np.concatenate([c for _, c, _ in out])
+        lmean = allc.mean(0).astype(np.float32)
+        lstd = np.maximum(allc.std(0), 1e-2).astype(np.float32)
     encoded = [
         EncodedSequence(f, ((c - lmean) / lstd).astype(np.float32), segs) for f, c, segs in out
     ]
@@ -105,8 +110,21 @@ def _train(
         torch.set_num_threads(settings.threads)
     run_dir = Path(config.get("run_dir", "runs/denoiser"))
     latest = run_dir / "latest.pt"
-    tok_path = Path(config["tokenizer_checkpoint"])
-    tokenizer, tok_ckpt = load_tokenizer(tok_path)
+    # init_from: fine-tune a trained denoiser checkpoint (slim or full). Its frozen tokenizer,
+    # statistics and latent statistics are kept, so the latents mean what they meant.
+    init: dict[str, Any] | None = None
+    if config.get("init_from") and not (resume and latest.is_file()):
+        init = torch.load(Path(config["init_from"]), map_location="cpu", weights_only=False)
+        if init.get("kind") != "denoiser":
+            raise ValueError(f"{config['init_from']}: init_from needs a denoiser checkpoint")
+        tok_path = Path(init["tokenizer_checkpoint"])
+        tokenizer = BodyTokenizer(TokenizerConfig.from_dict(init["tokenizer_config"]))
+        tokenizer.load_state_dict(init["tokenizer"])
+        tokenizer.eval().requires_grad_(False)
+        tok_ckpt = {"stats": init["stats"], "run_config": init["run_config"]}
+    else:
+        tok_path = Path(config["tokenizer_checkpoint"])
+        tokenizer, tok_ckpt = load_tokenizer(tok_path)
     mean = np.asarray(tok_ckpt["stats"]["mean"], np.float32)
     std = np.asarray(tok_ckpt["stats"]["std"], np.float32)
     data_cfg = dict(config.get("data", tok_ckpt["run_config"].get("data", {})))
@@ -120,13 +138,14 @@ def _train(
         int(settings.extra.get("yaw_variants", 8)),
         np.random.default_rng(seed + 11),
         ctx.device,
+        None if init is None else (init["latent_stats"]["mean"], init["latent_stats"]["std"]),
     )
     ckpt: dict[str, Any] | None = None
     if resume and latest.is_file():
         ckpt = torch.load(latest, map_location="cpu", weights_only=False)
         lmean = np.asarray(ckpt["latent_stats"]["mean"], np.float32)
         lstd = np.asarray(ckpt["latent_stats"]["std"], np.float32)
-    model_cfg = dict(config.get("model", {}))
+    model_cfg = dict(config.get("model", {}) if init is None else init["denoiser_config"])
     model_cfg.update(
         feature_dim=L.FEATURE_SIZE,
         root_dim=L.ROOT_DIM,
@@ -138,6 +157,9 @@ def _train(
     schedule = DiffusionSchedule.cosine(dcfg.diffusion_steps)
     model = Denoiser(dcfg)
     ema = EMA(model, settings.ema_decay)
+    if init is not None:
+        model.load_state_dict(init["ema"])
+        ema.model.load_state_dict(init["ema"])
     if ckpt is not None:
         model.load_state_dict(ckpt["model"])
         ema.model.load_state_dict(ckpt["ema"])

@@ -1,0 +1,130 @@
+"""Evaluation metrics on synthetic data with known answers (and the dataset, when present)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ardy_export.data import contacts
+from ardy_export.data.config import load_data_config
+from ardy_export.data.features import joint_velocities, pack_features, positions_from_features
+from ardy_export.data.skeleton import FOOT_JOINTS, JOINT_COUNT
+from ardy_export.evaluation import metrics
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+PROCESSED = REPO_ROOT / "data" / "processed"
+FPS = 20.0
+
+
+def sliding_foot(frames: int = 40) -> np.ndarray:
+    """All joints high except Foot_L, which is on the ground (2 cm) and slides at 0.5 m/s
+    for the first half, then lifts to 0.3 m and moves at 2 m/s."""
+    p = np.zeros((frames, JOINT_COUNT, 3))
+    p[..., 1] = 1.0
+    foot = FOOT_JOINTS[0]
+    low = np.arange(frames) < frames // 2
+    speed = np.where(low, 0.5, 2.0)
+    p[:, foot, 0] = np.cumsum(speed) / FPS
+    p[:, foot, 1] = np.where(low, 0.02, 0.3)
+    return p
+
+
+def test_foot_skate_of_a_sliding_foot() -> None:
+    assert metrics.foot_skate(sliding_foot(), FOOT_JOINTS, FPS) == pytest.approx(0.5)
+    # pooled over clips, a single threshold for all joints
+    both = [sliding_foot(30), sliding_foot(50)]
+    assert metrics.foot_skate(both, FOOT_JOINTS, FPS, height_threshold=0.1) == pytest.approx(0.5)
+    assert np.isnan(metrics.foot_skate(sliding_foot(), FOOT_JOINTS, FPS, height_threshold=0.01))
+
+
+def _features(positions: np.ndarray) -> np.ndarray:
+    frames = positions.shape[0]
+    rotations = np.broadcast_to(np.eye(3), (frames, JOINT_COUNT, 3, 3))
+    velocities = joint_velocities(positions, FPS)
+    return pack_features(rotations, positions, velocities, np.zeros((frames, 4)), np.float64)
+
+
+def test_foot_skate_matches_the_feature_based_figure() -> None:
+    rng = np.random.default_rng(3)
+    clips = []
+    for frames in (25, 60):
+        p = np.cumsum(rng.normal(0.0, 0.02, (frames, JOINT_COUNT, 3)), axis=0)
+        p[..., 1] = np.abs(p[..., 1]) + rng.uniform(0.0, 0.2, (frames, JOINT_COUNT))
+        clips.append(p)
+    expected = contacts.foot_skate([_features(p) for p in clips])
+    assert np.isfinite(expected)
+    assert metrics.foot_skate(clips, FOOT_JOINTS, FPS) == pytest.approx(expected, rel=1e-9)
+
+
+def test_foot_skate_matches_the_dataset_figure() -> None:
+    if not (PROCESSED / "clips.npz").is_file():
+        pytest.skip("data/processed not found (run ardy-export data prepare)")
+    from ardy_export.data.dataset import load_clips
+
+    features = [c.features for c in load_clips(PROCESSED)]
+    expected = contacts.foot_skate(features)
+    fps = load_data_config().fps
+    positions = [positions_from_features(f) for f in features]
+    assert metrics.foot_skate(positions, FOOT_JOINTS, fps) == pytest.approx(expected, rel=1e-3)
+    assert expected == pytest.approx(0.086, abs=0.001)  # configs/data.yaml's figure
+
+
+def test_jerk_of_a_cubic_is_six_times_its_coefficient() -> None:
+    t = np.arange(30)[:, None, None] / FPS
+    a = np.array([0.3, -0.4, 1.2])
+    positions = a * t**3 + 0.5 * t**2 - t + np.ones((1, JOINT_COUNT, 3))
+    per_frame = metrics.jerk(positions, FPS)
+    assert per_frame.shape == (27,)
+    np.testing.assert_allclose(per_frame, 6.0 * np.linalg.norm(a), rtol=1e-6)
+    assert metrics.mean_jerk([positions, positions[:10]], FPS) == pytest.approx(
+        6.0 * np.linalg.norm(a), rel=1e-6
+    )
+    assert metrics.mean_jerk(2.0 * t - 1.0 + np.zeros((1, JOINT_COUNT, 3)), FPS) < 1e-6
+
+
+def _unit(x: np.ndarray) -> np.ndarray:
+    return x / np.linalg.norm(x, axis=-1, keepdims=True)
+
+
+def test_r_precision_identical_and_shuffled() -> None:
+    rng = np.random.default_rng(0)
+    emb = _unit(rng.normal(size=(600, 32)))
+    assert metrics.r_precision(emb, emb, top_k=3, pool=32) == 1.0
+    shuffled = emb[rng.permutation(len(emb))]
+    chance = metrics.r_precision_chance(3, 32)
+    assert chance == pytest.approx(3 / 32)
+    assert metrics.r_precision(emb, shuffled, top_k=3, pool=32) == pytest.approx(chance, abs=0.04)
+
+
+def test_r_precision_with_labels_draws_distinct_labels() -> None:
+    rng = np.random.default_rng(1)
+    labels = rng.integers(0, 40, 800)
+    label_emb = _unit(rng.normal(size=(40, 64)))
+    text = label_emb[labels]
+    motion = _unit(text + rng.normal(0.0, 0.01, text.shape))
+    # texts of the same label are never in the pool, so equal label texts cannot tie
+    assert metrics.r_precision(motion, text, top_k=1, pool=32, label_ids=labels) == 1.0
+    noise = _unit(rng.normal(size=text.shape))
+    r = metrics.r_precision(noise, text, top_k=3, pool=32, label_ids=labels)
+    assert r == pytest.approx(3 / 32, abs=0.04)
+    with pytest.raises(ValueError, match="labels"):
+        metrics.r_precision(motion, text, pool=41, label_ids=labels)
+
+
+def test_fid() -> None:
+    rng = np.random.default_rng(2)
+    real = rng.normal(size=(2000, 8)) @ rng.normal(size=(8, 8))
+    assert metrics.fid(real, real) == pytest.approx(0.0, abs=1e-6)
+    shift = np.array([1.0, -2.0, 0.0, 0.5, 0.0, 0.0, 0.0, 3.0])
+    assert metrics.fid(real, real + shift) == pytest.approx(float(shift @ shift), rel=1e-5)
+    # independent samples of N(0, I) and N(0, 4 I): trace term 8 * (1 - 2)^2 = 8
+    wide = rng.normal(size=(20000, 8))
+    assert metrics.fid(wide, 2.0 * rng.normal(size=(20000, 8))) == pytest.approx(8.0, rel=0.05)
+
+
+def test_multimodal_distance() -> None:
+    a = np.array([[1.0, 0.0], [0.0, 1.0]])
+    assert metrics.multimodal_distance(a, a) == 0.0
+    assert metrics.multimodal_distance(a, -a) == pytest.approx(2.0)
