@@ -594,6 +594,13 @@ void ModelPackage::Impl::parse(const Manifest& m) {
   defaults.w_text = static_cast<float>(m.number("sampling.w_text"));
   defaults.w_con = static_cast<float>(m.number("sampling.w_con"));
   defaults.decode_context_tokens = m.size("sampling.decode_context_tokens", 0);
+  if (m.has("sampling.output_smoothing_frames")) {
+    const double sigma = m.number("sampling.output_smoothing_frames");
+    if (!(sigma >= 0.0 && sigma <= 10.0)) {
+      m.fail("sampling.output_smoothing_frames", "is " + describe(sigma) + ", expected 0..10 frames");
+    }
+    defaults.output_smoothing_frames = sigma;
+  }
 
   // --- text ---------------------------------------------------------------------------------
   text.graph_file = m.string("text.graph");

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "kinematics.hpp"
+#include "motion_filter.hpp"
 #include "timeline.hpp"
 
 namespace ardy {
@@ -96,6 +97,7 @@ struct Planner::Segment {
   uint64_t window_id = 0;
   Rollout before;
   std::shared_ptr<const WindowResult> result;
+  std::vector<float> shown;  // the output filter's features of the frames (empty: filter off)
 };
 
 // What the commands have set: the worker's copy, applied to the rollout
@@ -155,6 +157,7 @@ Planner::Planner(std::shared_ptr<const ModelPackage> package, PlannerConfig conf
   if (config_.decode_context_tokens > 0) s.decode_context_tokens = config_.decode_context_tokens;
   s.start_xz = config_.start_xz;
   s.seed = config_.seed;
+  smoothing_frames_ = config_.output_smoothing_frames.value_or(package_->sampling_defaults().output_smoothing_frames);
   rollout_ = with_context("Planner config", [&] { return std::make_unique<Rollout>(package_, s); });
   master_ = std::make_unique<MasterState>();
   master_->settings = s;
@@ -885,6 +888,27 @@ bool Planner::publish(int64_t start, bool splice, size_t tokens, Rollout before,
   const size_t m = layout.feature_size;
   const size_t count = tokens * static_cast<size_t>(patch_);
 
+  // The output filter (motion_filter.hpp) on what is shown; the rollout keeps
+  // the raw frames. Its left context: the frames shown just before `start`.
+  const float* shown = result->features.data();
+  const Motion* motion = &result->motion;
+  std::vector<float> filtered;
+  Motion filtered_motion;
+  if (smoothing_radius(smoothing_frames_) > 0) {
+    const float* context = nullptr;
+    size_t context_frames = 0;
+    for (auto it = segments_.rbegin(); it != segments_.rend(); ++it) {
+      if (it->start >= start) continue;
+      context = it->shown.empty() ? it->result->features.data() : it->shown.data();
+      context_frames = std::min(static_cast<size_t>(start - it->start), it->result->frame_count);
+      break;
+    }
+    filtered = smooth_features(layout, context, context_frames, shown, count, smoothing_frames_);
+    features_to_motion(p.skeleton(), layout, filtered.data(), count, filtered_motion);
+    shown = filtered.data();
+    motion = &filtered_motion;
+  }
+
   auto block = std::make_shared<FrameBlock>();
   block->start = start;
   block->count = count;
@@ -895,15 +919,15 @@ bool Planner::publish(int64_t start, bool splice, size_t tokens, Rollout before,
   block->positions.resize(count * joints_);
   block->contacts.resize(count * contacts_);
   for (size_t f = 0; f < count; ++f) {
-    const float* row = result->features.data() + f * m;
+    const float* row = shown + f * m;
     const float* root = row + layout.root_position.start;
     block->root_position[f] = glm::vec3(root[0], root[1], root[2]);
     const float* h = row + layout.heading.start;
     block->heading[f] = heading_angle(h[0], h[1]);
     const float* c = row + layout.foot_contacts.start;
     std::copy(c, c + contacts_, block->contacts.begin() + static_cast<std::ptrdiff_t>(f * contacts_));
-    const glm::mat3* local = result->motion.local_rotations_of(f);
-    const glm::vec3* pos = result->motion.positions_of(f);
+    const glm::mat3* local = motion->local_rotations_of(f);
+    const glm::vec3* pos = motion->positions_of(f);
     for (size_t j = 0; j < joints_; ++j) {
       block->local_rotations[f * joints_ + j] = quat_from_matrix(local[j]);
       block->positions[f * joints_ + j] = pos[j];
@@ -937,7 +961,7 @@ bool Planner::publish(int64_t start, bool splice, size_t tokens, Rollout before,
     const int64_t end = last.start + static_cast<int64_t>(last.tokens) * patch_;
     if (end > start) last.tokens = static_cast<size_t>((start - last.start) / patch_);
   }
-  segments_.push_back(Segment{start, tokens, window_id, std::move(before), std::move(result)});
+  segments_.push_back(Segment{start, tokens, window_id, std::move(before), std::move(result), std::move(filtered)});
   *rollout_ = std::move(after);
   return true;
 }

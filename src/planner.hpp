@@ -108,6 +108,7 @@ struct PlannerConfig {
   double history_seconds = 8.0;               // history window (clamped to tokens.max_history)
   std::optional<double> future_seconds;       // out-of-window goals (default and limit: tokens.max_future)
   size_t decode_context_tokens = 0;           // 0: the package default
+  std::optional<double> output_smoothing_frames;  // output filter sigma (motion_filter.hpp); default: the package's
   glm::dvec2 start_xz{0.0, 0.0};              // where the character starts
   uint64_t seed = 0;                          // noise of the windows
   // Replan buffer and queue.
@@ -324,6 +325,7 @@ class Planner {
   double fps_ = 0.0;
   int64_t patch_ = 0;
   size_t joints_ = 0;
+  double smoothing_frames_ = 0.0;  // the output filter's sigma
   size_t contacts_ = 0;
 
   // Shared with the caller.

@@ -53,6 +53,11 @@ PARITY_HISTORY_FUTURE = ((0, 0), (1, 0), (0, 2), (3, 1), (8, 4))
 PARITY_TOKENS = (1, 3, 14)
 
 
+# Sigma (frames) of the runtime's Gaussian output filter over the decoded motion: the 4-frame
+# patches of the tokenizer leave seams (see src/motion_filter.hpp and docs/evaluation).
+OUTPUT_SMOOTHING_FRAMES = 1.5
+
+
 class PackageError(RuntimeError):
     """An export whose graphs do not reproduce PyTorch, or a package that cannot be built."""
 
@@ -336,12 +341,14 @@ def export_package(
     tiny_text_seed: int | None = None,
     text_max_tokens: int | None = None,
     text_weights: str = "float32",
+    output_smoothing_frames: float = OUTPUT_SMOOTHING_FRAMES,
 ) -> dict[str, Any]:
     """Writes a complete, checked model package into ``out_dir``; returns its model.json.
 
     ``tiny_text_seed`` puts a tiny random-weight text encoder (same interface and vocabulary)
     in place of all-MiniLM-L6-v2, for test packages. ``text_weights`` is the text encoder's
     weight format (``text.export.WEIGHT_FORMATS``; "int8" for shipped packages).
+    ``output_smoothing_frames`` is the runtime's output filter (src/motion_filter.hpp).
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -352,5 +359,6 @@ def export_package(
     text = export_text_encoder(out, **text_kwargs)
     info = {"commit": _git_commit(), **(provenance or {}), "parity_max_abs_error": errors}
     description = model_json(bundle, out, text, info)
+    description["sampling"]["output_smoothing_frames"] = float(output_smoothing_frames)
     (out / MODEL_FILE).write_text(json.dumps(description, indent=1) + "\n", encoding="utf-8")
     return description

@@ -4,7 +4,7 @@
 //   ardy-generate --model DIR --timeline TIMELINE.json --seconds S
 //                 [--seed N] [--steps K] [--threads N] [--out-bvh out.bvh]
 //                 [--out-json out.json] [--w-text W] [--w-con W]
-//                 [--commit-tokens N] [--history-seconds S]
+//                 [--commit-tokens N] [--history-seconds S] [--smoothing S]
 //
 // The timeline schema is timeline.hpp's (export_tools' timeline.py). Exit
 // codes: 0 success, 1 a runtime failure (bad model, bad timeline, I/O), 2 bad
@@ -32,6 +32,7 @@
 #include "error.hpp"
 #include "io.hpp"
 #include "kinematics.hpp"
+#include "motion_filter.hpp"
 #include "package.hpp"
 #include "rollout.hpp"
 #include "sampler.hpp"
@@ -43,6 +44,7 @@ constexpr const char* kUsage =
     "usage: ardy-generate --model DIR --timeline TIMELINE.json --seconds S [--seed N] [--steps K]\n"
     "                     [--out-bvh out.bvh] [--out-json out.json] [--threads N]\n"
     "                     [--w-text W] [--w-con W] [--commit-tokens N] [--history-seconds S]\n"
+    "                     [--smoothing S]\n"
     "\n"
     "  --model DIR            model package folder (model.json, graphs, vocab.txt)\n"
     "  --timeline FILE        JSON timeline: {\"prompts\": [{\"time\", \"text\"}], \"constraints\": [...]}\n"
@@ -54,7 +56,8 @@ constexpr const char* kUsage =
     "  --threads N            ONNX Runtime intra-op threads (default: all cores but one)\n"
     "  --w-text W, --w-con W  guidance weights (default: the package's)\n"
     "  --commit-tokens N      tokens kept per window, 1..window (default: the whole window)\n"
-    "  --history-seconds S    history length (default and maximum: the model's)\n";
+    "  --history-seconds S    history length (default and maximum: the model's)\n"
+    "  --smoothing S          output filter sigma in frames, 0 = raw model output (default: the package's)\n";
 
 // A bad command line: exit code 2.
 struct UsageError {
@@ -91,13 +94,15 @@ struct Arguments {
   std::optional<float> w_con;
   std::optional<size_t> commit_tokens;
   std::optional<double> history_seconds;
+  std::optional<double> smoothing;
 };
 
 Arguments parse_arguments(int argc, char** argv) {
   std::map<std::string, std::string> values;
   const std::vector<std::string> known{"--model",  "--timeline", "--seconds",       "--seed",
                                        "--steps",  "--out-bvh",  "--out-json",      "--threads",
-                                       "--w-text", "--w-con",    "--commit-tokens", "--history-seconds"};
+                                       "--w-text", "--w-con",    "--commit-tokens", "--history-seconds",
+                                       "--smoothing"};
   for (int i = 1; i < argc; ++i) {
     std::string arg = argv[i];
     std::string value;
@@ -155,6 +160,7 @@ Arguments parse_arguments(int argc, char** argv) {
   if (values.count("--w-con")) a.w_con = static_cast<float>(number("--w-con", -100.0, 100.0));
   if (values.count("--commit-tokens")) a.commit_tokens = static_cast<size_t>(integer("--commit-tokens", 1, 100000));
   if (values.count("--history-seconds")) a.history_seconds = number("--history-seconds", 0.0, 3600.0);
+  if (values.count("--smoothing")) a.smoothing = number("--smoothing", 0.0, 10.0);
   return a;
 }
 
@@ -324,20 +330,25 @@ int run(const Arguments& args) {
   for (const ardy::Constraint& c : timeline.constraints) rollout.constraints().add(c);
 
   const auto wanted = static_cast<size_t>(std::max<long long>(1, std::llround(args.seconds * package->fps())));
-  const size_t m = package->layout().feature_size, j = package->skeleton().joint_count();
+  const ardy::FeatureLayout& layout = package->layout();
+  const size_t m = layout.feature_size, j = package->skeleton().joint_count();
+  const double sigma = args.smoothing.value_or(package->sampling_defaults().output_smoothing_frames);
   Generated g;
   g.motion.joint_count = j;
   while (g.frame_count < wanted) {
     const ardy::WindowResult window = rollout.generate_next_window();
     const size_t keep = std::min(rollout.config().commit_tokens * t.patch, wanted - g.frame_count);
-    g.features.insert(g.features.end(), window.features.begin(),
-                      window.features.begin() + static_cast<std::ptrdiff_t>(keep * m));
-    const auto take = [&](const auto& from, auto& to) {
-      to.insert(to.end(), from.begin(), from.begin() + static_cast<std::ptrdiff_t>(keep * j));
-    };
-    take(window.motion.global_rotations, g.motion.global_rotations);
-    take(window.motion.local_rotations, g.motion.local_rotations);
-    take(window.motion.positions, g.motion.positions);
+    // The same output filter as the planner: each window's frames, with the
+    // frames already written before them as context (they stay as they are).
+    const std::vector<float> shown =
+        ardy::smooth_features(layout, g.features.data(), g.frame_count, window.features.data(), keep, sigma);
+    g.features.insert(g.features.end(), shown.begin(), shown.end());
+    ardy::Motion motion;
+    ardy::features_to_motion(package->skeleton(), layout, shown.data(), keep, motion);
+    const auto take = [&](const auto& from, auto& to) { to.insert(to.end(), from.begin(), from.end()); };
+    take(motion.global_rotations, g.motion.global_rotations);
+    take(motion.local_rotations, g.motion.local_rotations);
+    take(motion.positions, g.motion.positions);
     g.frame_count += keep;
     g.motion.frame_count = g.frame_count;
     nlohmann::json info;

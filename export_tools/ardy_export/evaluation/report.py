@@ -361,52 +361,61 @@ def _facing_front(pose: np.ndarray) -> np.ndarray:
 
 
 def _plot_sheet(con: dict[str, Any], path: Path) -> None:
+    """One row per prompt: poses every 1.2 s seen from the front, side by side, and the
+    ground path from above."""
     plt = _pyplot()
     labels = list(con["sheet"])
-    poses = 6
+    poses, spacing = 6, 1.1
     fig, axes = plt.subplots(
-        len(labels), poses + 1, figsize=(1.3 * (poses + 1), 1.6 * len(labels)), dpi=80
+        len(labels),
+        2,
+        figsize=(8.0, 1.55 * len(labels)),
+        dpi=80,
+        gridspec_kw={"width_ratios": [5, 1]},
+        squeeze=False,
     )
     for row, label in enumerate(labels):
         p = np.asarray(con["sheet"][label][0])
-        times = np.linspace(0, len(p) - 1, poses).astype(int)
-        for col, t in enumerate(times):
-            ax = axes[row, col]
-            pose = _facing_front(p[t])
+        ax = axes[row, 0]
+        for col, t in enumerate(np.linspace(0, len(p) - 1, poses).astype(int)):
+            pose = _facing_front(p[t]) + np.array([col * spacing, 0.0, 0.0])
             for j, parent in enumerate(L.PARENTS):
                 if parent >= 0:
-                    ax.plot(pose[[parent, j], 0], pose[[parent, j], 1], color="k", lw=1)
+                    ax.plot(pose[[parent, j], 0], pose[[parent, j], 1], color="k", lw=1.2)
             for hand, color in (("Hand_L", "tab:red"), ("Hand_R", "tab:blue")):
                 k = L.JOINT_NAMES.index(hand)
-                ax.plot(pose[k, 0], pose[k, 1], "o", ms=3, color=color)
-            ax.set_xlim(-1, 1)
-            ax.set_ylim(-0.05, 2.1)
-            ax.set_aspect("equal")
-            ax.axis("off")
-            if row == 0:
-                ax.set_title(f"{t / L.FPS:.1f} s", fontsize=7)
-        ax = axes[row, poses]
+                ax.plot(pose[k, 0], pose[k, 1], "o", ms=3.5, color=color)
+            ax.text(col * spacing, -0.22, f"{t / L.FPS:.1f} s", fontsize=6, ha="center")
+        ax.set_xlim(-0.6, (poses - 1) * spacing + 0.6)
+        ax.set_ylim(-0.3, 2.0)
+        ax.set_aspect("equal")
+        ax.axis("off")
+        ax.set_title(con["prompts"][label], fontsize=8, loc="left")
+        ax = axes[row, 1]
         ax.plot(p[:, 0, 0], p[:, 0, 2], color="tab:green", lw=1)
         ax.plot(p[0, 0, 0], p[0, 0, 2], "o", ms=3, color="tab:green")
-        ax.set_aspect("equal", adjustable="datalim")
+        reach = max(1.0, float(np.abs(p[:, 0, [0, 2]]).max()) * 1.1)
+        ax.set_xlim(-reach, reach)
+        ax.set_ylim(-reach, reach)
+        ax.set_aspect("equal")
         ax.tick_params(labelsize=5)
-        prompt = con["prompts"][label]
-        axes[row, 0].text(-1, 2.15, prompt, fontsize=6, ha="left", va="bottom")
     fig.text(
         0.01,
-        0.005,
-        "red: left hand, blue: right hand; last column: ground path (top view, x right, z up)",
-        fontsize=6,
+        0.002,
+        "Seen from the front. Red: left hand, blue: right hand. Right column: ground path "
+        "from above (x to the right, z up; the dot is the start).",
+        fontsize=7,
     )
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.012, 1, 1))
     fig.savefig(path)
     plt.close(fig)
 
 
 ABLATIONS = {
-    "two_stage": "two-stage denoiser, local root in the decoder (the design)",
+    "two_stage": "two-stage denoiser (the design)",
     "one_stage": "one-stage denoiser",
-    "global_root": "global root in the tokenizer's decoder",
+    "local_root": "small tokenizer, local root in the decoder (the design)",
+    "global_root": "small tokenizer, global root in the decoder",
 }
 
 
@@ -454,10 +463,12 @@ def write_ablation_table(runs: Path, main: Path | None, out: Path) -> Path:
     lines = [
         "## Ablations",
         "",
-        "Small models on one CPU budget each (`scripts/run_ablations.sh`, configs in "
-        "`export_tools/configs/ablations/`): tokenizer 96 x 2 for 1,500 steps of 64, denoiser "
-        "96 x 2 for 3,000 steps of 32; evaluated like the main model with fewer rollouts "
-        "(4 per label, 1 crop per label), 4 DDIM steps.",
+        "Each run on the same CPU budget (`scripts/run_ablations.sh`, configs in "
+        "`export_tools/configs/ablations/`): a 96 x 2 denoiser trained for 2,500 steps of 32 "
+        "windows on one core, on the shipped model's tokenizer (stage rows) or on a small "
+        "96 x 2 tokenizer of 1,500 steps of 64 (root rows, `--root`); evaluated like the "
+        "main model with fewer rollouts (4 per label, 1 crop per label), 4 DDIM steps. Rows "
+        "missing here were not run.",
         "",
         *_table(header, rows),
         "",

@@ -86,6 +86,18 @@ def encode_sequences(
     return encoded, lmean, lstd
 
 
+def tokenizer_from_checkpoint(path: Path) -> tuple[BodyTokenizer, dict[str, Any]]:
+    """A frozen tokenizer and its statistics from a tokenizer checkpoint, or the one inside a
+    denoiser checkpoint (e.g. the committed export_tools/checkpoints/default_denoiser.pt)."""
+    ckpt = torch.load(path, map_location="cpu", weights_only=False)
+    if ckpt.get("kind") != "denoiser":
+        return load_tokenizer(path)
+    tokenizer = BodyTokenizer(TokenizerConfig.from_dict(ckpt["tokenizer_config"]))
+    tokenizer.load_state_dict(ckpt["tokenizer"])
+    tokenizer.eval().requires_grad_(False)
+    return tokenizer, {"stats": ckpt["stats"], "run_config": ckpt["run_config"]}
+
+
 def train_denoiser(
     config: dict[str, Any], resume: bool = False, progress: bool = True
 ) -> TrainResult:
@@ -117,14 +129,8 @@ def _train(
         init = torch.load(Path(config["init_from"]), map_location="cpu", weights_only=False)
         if init.get("kind") != "denoiser":
             raise ValueError(f"{config['init_from']}: init_from needs a denoiser checkpoint")
-        tok_path = Path(init["tokenizer_checkpoint"])
-        tokenizer = BodyTokenizer(TokenizerConfig.from_dict(init["tokenizer_config"]))
-        tokenizer.load_state_dict(init["tokenizer"])
-        tokenizer.eval().requires_grad_(False)
-        tok_ckpt = {"stats": init["stats"], "run_config": init["run_config"]}
-    else:
-        tok_path = Path(config["tokenizer_checkpoint"])
-        tokenizer, tok_ckpt = load_tokenizer(tok_path)
+    tok_path = Path(config.get("tokenizer_checkpoint") or config["init_from"])
+    tokenizer, tok_ckpt = tokenizer_from_checkpoint(tok_path)
     mean = np.asarray(tok_ckpt["stats"]["mean"], np.float32)
     std = np.asarray(tok_ckpt["stats"]["std"], np.float32)
     data_cfg = dict(config.get("data", tok_ckpt["run_config"].get("data", {})))

@@ -1,0 +1,59 @@
+#include "motion_filter.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace ardy {
+
+size_t smoothing_radius(double sigma_frames) {
+  return sigma_frames > 0.0 ? static_cast<size_t>(std::ceil(3.0 * sigma_frames)) : 0;
+}
+
+std::vector<float> smooth_features(const FeatureLayout& layout, const float* context, size_t context_frames,
+                                   const float* frames, size_t count, double sigma_frames) {
+  const size_t m = layout.feature_size;
+  std::vector<float> out(frames, frames + count * m);
+  const size_t radius = smoothing_radius(sigma_frames);
+  if (radius == 0 || count == 0) return out;
+
+  std::vector<double> weights(2 * radius + 1);
+  for (size_t k = 0; k < weights.size(); ++k) {
+    const double d = static_cast<double>(k) - static_cast<double>(radius);
+    weights[k] = std::exp(-0.5 * d * d / (sigma_frames * sigma_frames));
+  }
+  const size_t left = context ? std::min(context_frames, radius) : 0;
+  const float* first_context = left ? context + (context_frames - left) * m : nullptr;
+  // Row i of [left context frames; new frames], clamped at both ends.
+  const auto row = [&](long long i) -> const float* {
+    const long long lo = -static_cast<long long>(left);
+    const long long hi = static_cast<long long>(count) - 1;
+    i = std::clamp(i, lo, hi);
+    return i < 0 ? first_context + (i + static_cast<long long>(left)) * static_cast<long long>(m)
+                 : frames + i * static_cast<long long>(m);
+  };
+  const FeatureSlice contacts = layout.foot_contacts;
+  std::vector<double> sum(m);
+  for (size_t f = 0; f < count; ++f) {
+    std::fill(sum.begin(), sum.end(), 0.0);
+    double total = 0.0;
+    for (size_t k = 0; k < weights.size(); ++k) {
+      const float* r = row(static_cast<long long>(f + k) - static_cast<long long>(radius));
+      for (size_t c = 0; c < m; ++c) sum[c] += weights[k] * r[c];
+      total += weights[k];
+    }
+    float* o = out.data() + f * m;
+    for (size_t c = 0; c < m; ++c) {
+      if (c >= contacts.start && c < contacts.start + contacts.size) continue;
+      o[c] = static_cast<float>(sum[c] / total);
+    }
+    float* h = o + layout.heading.start;
+    const float norm = std::hypot(h[0], h[1]);
+    if (norm > 1e-6f) {
+      h[0] /= norm;
+      h[1] /= norm;
+    }
+  }
+  return out;
+}
+
+}  // namespace ardy

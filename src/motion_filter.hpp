@@ -1,0 +1,28 @@
+#pragma once
+
+// The output filter: a Gaussian over time on decoded world features, applied
+// to the frames the runtime shows (never to what the model reads back as
+// history). The tokenizer decodes 4-frame patches whose seams make the raw
+// motion jerky (on the default model, jerk at the patch seam is 3.5x that
+// inside a patch, and 7x the dataset's overall); sigma = 1.5 frames brings the
+// jerk to the dataset's level (numbers in docs/evaluation).
+
+#include <cstddef>
+#include <vector>
+
+#include "features.hpp"
+
+namespace ardy {
+
+// Smoothed copy of `count` new frames of world features [count, M]. Up to
+// 3 sigma frames of `context` (the frames shown just before them,
+// [context_frames, M], left as they are) are read on the left; past the last
+// new frame the last frame repeats. Every feature but the foot contacts is
+// filtered; the heading's (cos, sin) is renormalized. sigma_frames <= 0 copies.
+std::vector<float> smooth_features(const FeatureLayout& layout, const float* context, size_t context_frames,
+                                   const float* frames, size_t count, double sigma_frames);
+
+// Frames of context smooth_features reads for this sigma (0 when off).
+size_t smoothing_radius(double sigma_frames);
+
+}  // namespace ardy

@@ -1,0 +1,99 @@
+// The output filter (motion_filter.hpp): what it keeps, what it smooths.
+
+#include <catch_amalgamated.hpp>
+
+#include <cmath>
+#include <vector>
+
+#include "features.hpp"
+#include "motion_filter.hpp"
+
+using Catch::Approx;
+
+namespace {
+
+const ardy::FeatureLayout kLayout = ardy::FeatureLayout::ardy_default(21);
+
+// Frames whose every feature is a * frame + b (heading (1, 0), contacts 0/1 alternating).
+std::vector<float> ramp(size_t frames, double a, double b, long long first = 0) {
+  const size_t m = kLayout.feature_size;
+  std::vector<float> out(frames * m);
+  for (size_t f = 0; f < frames; ++f) {
+    for (size_t c = 0; c < m; ++c) out[f * m + c] = static_cast<float>(a * double(first + long(f)) + b + 0.01 * c);
+    out[f * m + kLayout.heading.start] = 1.0f;
+    out[f * m + kLayout.heading.start + 1] = 0.0f;
+    for (size_t c = 0; c < kLayout.contact_count(); ++c) out[f * m + kLayout.foot_contacts.start + c] = float((f + c) % 2);
+  }
+  return out;
+}
+
+double column_jerk(const std::vector<float>& x, size_t column) {
+  const size_t m = kLayout.feature_size, frames = x.size() / m;
+  double total = 0.0;
+  for (size_t f = 3; f < frames; ++f) {
+    const auto v = [&](size_t k) { return double(x[k * m + column]); };
+    total += std::abs(v(f) - 3 * v(f - 1) + 3 * v(f - 2) - v(f - 3));
+  }
+  return total / double(frames - 3);
+}
+
+}  // namespace
+
+TEST_CASE("sigma 0 copies the frames", "[motion_filter]") {
+  const std::vector<float> in = ramp(12, 0.3, 1.0);
+  CHECK(ardy::smoothing_radius(0.0) == 0);
+  CHECK(ardy::smooth_features(kLayout, nullptr, 0, in.data(), 12, 0.0) == in);
+}
+
+TEST_CASE("a linear motion with its past as context passes unchanged except at the open end",
+          "[motion_filter]") {
+  const size_t m = kLayout.feature_size;
+  const std::vector<float> past = ramp(10, 0.05, 1.0, 0);
+  const std::vector<float> now = ramp(20, 0.05, 1.0, 10);
+  const double sigma = 1.5;
+  const size_t radius = ardy::smoothing_radius(sigma);
+  REQUIRE(radius == 5);
+  const std::vector<float> out = ardy::smooth_features(kLayout, past.data(), 10, now.data(), 20, sigma);
+  const size_t column = kLayout.joint_positions.start + 7;
+  // A Gaussian keeps straight lines: every frame whose window lies inside the known frames.
+  for (size_t f = 0; f + radius < 20; ++f) CHECK(out[f * m + column] == Approx(now[f * m + column]).margin(1e-5));
+  // At the right end the last frame repeats: the line bends towards it (never past it).
+  CHECK(out[19 * m + column] < now[19 * m + column]);
+  CHECK(out[19 * m + column] > now[18 * m + column]);
+  // Contacts are flags: never blended.
+  for (size_t f = 0; f < 20; ++f) {
+    for (size_t c = 0; c < kLayout.contact_count(); ++c) {
+      const size_t at = f * m + kLayout.foot_contacts.start + c;
+      CHECK(out[at] == now[at]);
+    }
+  }
+}
+
+TEST_CASE("patch seams lose most of their jerk; the heading stays a unit vector", "[motion_filter]") {
+  const size_t m = kLayout.feature_size, frames = 40;
+  std::vector<float> in = ramp(frames, 0.02, 0.0);
+  const size_t column = kLayout.root_position.start;
+  for (size_t f = 0; f < frames; ++f) {
+    in[f * m + column] += (f / 4) % 2 ? 0.03f : -0.03f;  // a jump every 4 frames
+    const double psi = 0.05 * double(f) + ((f / 4) % 2 ? 0.1 : -0.1);
+    in[f * m + kLayout.heading.start] = static_cast<float>(std::cos(psi));
+    in[f * m + kLayout.heading.start + 1] = static_cast<float>(std::sin(psi));
+  }
+  const std::vector<float> out = ardy::smooth_features(kLayout, nullptr, 0, in.data(), frames, 1.5);
+  CHECK(column_jerk(out, column) < 0.2 * column_jerk(in, column));
+  for (size_t f = 0; f < frames; ++f) {
+    const float c = out[f * m + kLayout.heading.start], s = out[f * m + kLayout.heading.start + 1];
+    CHECK(std::hypot(c, s) == Approx(1.0f).margin(1e-5));
+  }
+}
+
+TEST_CASE("a window follows on from its context without a step", "[motion_filter]") {
+  // Context ends at 1.0, the new window starts at 1.6: the filter eases the first frames.
+  const size_t m = kLayout.feature_size;
+  const std::vector<float> past = ramp(8, 0.0, 1.0);
+  const std::vector<float> now = ramp(8, 0.0, 1.6);
+  const std::vector<float> out = ardy::smooth_features(kLayout, past.data(), 8, now.data(), 8, 1.5);
+  const size_t column = kLayout.root_position.start + 1;
+  CHECK(out[column] - past[7 * m + column] < 0.7 * (now[column] - past[7 * m + column]));
+  CHECK(out[7 * m + column] == Approx(1.6 + 0.01 * column).margin(1e-3));
+}
