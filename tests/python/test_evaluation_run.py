@@ -42,8 +42,9 @@ def test_constraint_cases_take_their_targets_from_the_crop() -> None:
             self.features = features
             self.frames = len(features)
             self.group = ("dataset-2", "walk", "normal")
+            self.name = f"walk_{len(features)}"
 
-    cases = tasks.constraint_cases([FakeClip(_walk(8.0))], 120, L.FPS, 2)  # type: ignore[list-item]
+    cases = tasks.constraint_cases([FakeClip(_walk(8.0))], 120, L.FPS, 2, 80)  # type: ignore[list-item]
     assert [c.task for c in cases] == list(tasks.CONSTRAINT_TASKS)
     by_task = {c.task: c for c in cases}
     waypoints = by_task["waypoints"].job.timeline["constraints"]
@@ -54,6 +55,14 @@ def test_constraint_cases_take_their_targets_from_the_crop() -> None:
     effectors = by_task["end_effectors"].job.timeline["constraints"]
     assert len(effectors) == 4 and all(e["joint"] in tasks.END_EFFECTOR_NAMES for e in effectors)
     assert by_task["keyframes"].job.timeline["prompts"][0]["text"] == "a person walks forward"
+    # A clip shorter than the rollout is used whole, down to the evaluator's 4 s; shorter
+    # clips are left out. The longest clips come first.
+    short = [FakeClip(_walk(5.0)), FakeClip(_walk(3.0)), FakeClip(_walk(8.0))]
+    cases = tasks.constraint_cases(short, 120, L.FPS, 2, 80)  # type: ignore[arg-type]
+    assert [c.job.seconds for c in cases] == [6.0] * 4 + [5.0] * 4
+    assert tasks.constrained_frames("waypoints", 100, L.FPS) == [40, 80, 99]
+    crops = tasks.test_crops(short, 120, 60, 80)  # type: ignore[arg-type]
+    assert sorted(len(c) for _, c in crops) == [100, 120]
 
 
 def test_midpoint_error_tells_passing_through_from_jumping() -> None:
@@ -119,8 +128,9 @@ def test_constraint_errors_are_zero_for_the_reference_itself() -> None:
         features = walk
         frames = len(walk)
         group = ("dataset-2", "walk", "normal")
+        name = "walk"
 
-    for case in tasks.constraint_cases([FakeClip()], 120, L.FPS, 1):  # type: ignore[list-item]
+    for case in tasks.constraint_cases([FakeClip()], 120, L.FPS, 1, 80):  # type: ignore[list-item]
         assert case.reference is not None
         errors = run.constraint_errors(case, _generated(positions_from_features(case.reference)))
         assert errors["error_m"] == pytest.approx(0.0, abs=1e-9)

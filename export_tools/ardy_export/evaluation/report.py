@@ -43,11 +43,14 @@ def _text_lines(text: dict[str, Any]) -> list[str]:
     return [
         "## Text to motion (paper Table 2)",
         "",
-        f"Held-out test split: {text['labels']} labels. R-precision: top 3 among 32 texts of "
-        f"distinct labels (chance {chance:.3f}). FID between evaluator embeddings of the "
-        "motion and of every 6 s crop of the test clips (the dataset row: two random halves "
-        "of those crops). Skate: horizontal foot speed while a foot joint is below its "
-        "height threshold. Jerk: mean joint jerk.",
+        f"Held-out test split: {text['labels']} labels. Generated: 6 s rollouts, the same "
+        "number per label, each with another paraphrase of the label and another seed. "
+        "Dataset: 6 s crops of the test clips (a clip of 2 to 6 s is one crop). "
+        f"R-precision: top 3 among 32 texts of distinct labels (chance {chance:.3f}). FID "
+        "between evaluator embeddings of the motion and of the test crops (the dataset row: "
+        "two random halves of the crops). Skate: horizontal foot speed while a foot joint is "
+        "below its height threshold; skate and jerk are averaged per label, then over the "
+        "labels (the test clips are spread very unevenly over the labels).",
         "",
         *_table(
             ["", "foot skate (m/s)", "R-precision top-3", "FID", "jerk (m/s^3)", "motions"], rows
@@ -79,15 +82,17 @@ def _constraint_lines(con: dict[str, Any]) -> list[str]:
     return [
         "## Constraints (paper Table 3)",
         "",
-        "Middle 6 s crops of the test clips, moved to start on the origin facing +Z; the "
-        "constraints are taken from the crop and the label's canonical prompt is given too. "
-        "Error: at the constrained frames (root: ground position; keyframes: all joints in "
-        "world space; end effectors: position relative to the root's ground point, and "
-        "world rotation). The runtime overwrites constrained root values, so the root error "
-        "at a constrained frame is zero by construction; *between frames* measures the "
-        "distance from the target to the midpoint of the frames just before and after it, "
-        "which is large when the motion jumps to the target for one frame instead of "
-        "passing through it. *Pose*: keyframe joints relative to the root's ground point.",
+        "The middle 6 s of the longest test clips of each label (the whole clip when it "
+        "lasts 2 to 6 s), moved to start on the origin facing +Z; the constraints are taken "
+        "from the crop and the label's canonical prompt is given too. Error: at the "
+        "constrained frames (root: ground position; keyframes: all joints in world space; "
+        "end effectors: position relative to the root's ground point, and world rotation). "
+        "The runtime overwrites constrained root values in the model's output and then "
+        "applies its output filter, so a root the motion does not reach by itself is pulled "
+        "only part of the way; *between frames* is the distance from the target to the "
+        "midpoint of the frames just before and after it (large when the motion jumps "
+        "towards the target for one frame instead of passing through it). *Pose*: keyframe "
+        "joints relative to the root's ground point.",
         "",
         *_table(
             [

@@ -54,6 +54,8 @@ class Context:
         self.log = log
         self.fps = L.FPS
         self.frames = round(float(config["seconds"]) * self.fps)
+        # Shorter real clips are left out (the evaluator pads clips shorter than its window).
+        self.min_frames = round(float(config["min_clip_seconds"]) * self.fps)
         self.runner = CliRunner(
             find_cli(config.get("cli")),
             Path(config["model"]),
@@ -87,18 +89,26 @@ class Context:
             np.stack([self.text_embedding(g, s) for g, s in zip(groups, sentences, strict=True)])
         )
         ids = [self.groups.index(g) for g in groups]
+        by_label: dict[Group, list[np.ndarray]] = {}
+        for p, g in zip(positions, groups, strict=True):
+            by_label.setdefault(g, []).append(p)
+        # Skate and jerk per label, then averaged over the labels: the test clips are very
+        # unevenly spread (74 clips of one label, 1 of another), the generated ones evenly.
         return {
-            "foot_skate": metrics.foot_skate(positions, self.feet, self.fps),
+            "foot_skate": float(
+                np.nanmean([metrics.foot_skate(v, self.feet, self.fps) for v in by_label.values()])
+            ),
             "r_precision_top3": metrics.r_precision(emb, text, 3, 32, seed=0, label_ids=ids),
             "fid": metrics.fid(self.real_embeddings, emb),
-            "jerk": metrics.mean_jerk(positions, self.fps),
+            "jerk": float(np.mean([metrics.mean_jerk(v, self.fps) for v in by_label.values()])),
             "count": len(positions),
+            "labels": len(by_label),
         }
 
     @property
     def real_embeddings(self) -> np.ndarray:
         if not hasattr(self, "_real"):
-            crops = test_crops(self.clips, self.frames, self.frames // 2)
+            crops = test_crops(self.clips, self.frames, self.frames // 2, self.min_frames)
             self._real_crops = crops
             self._real = self.evaluator.embed_motion([positions_from_features(c) for _, c in crops])
         return self._real
@@ -177,7 +187,9 @@ def constraint_errors(case: Case, motion: Generated) -> dict[str, float]:
 
 def constraints_section(ctx: Context) -> dict[str, Any]:
     cfg = ctx.config["constraints"]
-    cases = constraint_cases(ctx.clips, ctx.frames, ctx.fps, int(cfg["clips_per_group"]))
+    cases = constraint_cases(
+        ctx.clips, ctx.frames, ctx.fps, int(cfg["clips_per_group"]), ctx.min_frames
+    )
     motions = ctx.generate("constraints", [c.job for c in cases])
     tasks: dict[str, Any] = {}
     for task in dict.fromkeys(c.task for c in cases):

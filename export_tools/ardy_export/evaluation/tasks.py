@@ -45,10 +45,16 @@ def canonical_crop(features: np.ndarray, start: int, frames: int) -> np.ndarray:
     return np.asarray(rotate_yaw(crop, -heading), np.float64)
 
 
-def test_crops(clips: list[Clip], frames: int, stride: int) -> list[tuple[Group, np.ndarray]]:
-    """Every ``frames``-long crop (every ``stride`` frames) of the clips, canonical."""
+def test_crops(
+    clips: list[Clip], frames: int, stride: int, min_frames: int
+) -> list[tuple[Group, np.ndarray]]:
+    """Every ``frames``-long crop (every ``stride`` frames) of the clips, canonical; a clip
+    shorter than ``frames`` but at least ``min_frames`` long is one crop (most dataset-2
+    clips last 4.4 s)."""
     out = []
     for clip in clips:
+        if min_frames <= clip.frames < frames:
+            out.append((clip.group, canonical_crop(clip.features, 0, clip.frames)))
         for start in range(0, clip.frames - frames + 1, stride):
             out.append((clip.group, canonical_crop(clip.features, start, frames)))
     return out
@@ -117,20 +123,22 @@ def constrained_frames(task: str, frames: int, fps: float) -> list[int]:
 
 
 def constraint_cases(
-    clips: list[Clip], frames: int, fps: float, clips_per_group: int
+    clips: list[Clip], frames: int, fps: float, clips_per_group: int, min_frames: int
 ) -> list[Case]:
-    """Each constraint task on the middle crop of up to ``clips_per_group`` clips per test
-    group, with the label's canonical prompt (text and constraints together, as in the
-    paper's Table 3)."""
+    """Each constraint task on the middle ``frames`` frames (the whole clip when shorter,
+    down to ``min_frames``) of up to ``clips_per_group`` clips per test group, longest
+    clips first, with the label's canonical prompt (text and constraints together, as in
+    the paper's Table 3)."""
     by_group: dict[Group, list[Clip]] = {}
-    for clip in clips:
-        if clip.frames >= frames:
+    for clip in sorted(clips, key=lambda c: (-c.frames, c.name)):
+        if clip.frames >= min_frames:
             by_group.setdefault(clip.group, []).append(clip)
     effectors = [L.JOINT_NAMES.index(n) for n in END_EFFECTOR_NAMES]
     cases = []
     for g, (group, members) in enumerate(sorted(by_group.items())):
         for c, clip in enumerate(members[:clips_per_group]):
-            crop = canonical_crop(clip.features, (clip.frames - frames) // 2, frames)
+            length = min(frames, clip.frames)
+            crop = canonical_crop(clip.features, (clip.frames - length) // 2, length)
             prompt = _prompt(group, 0)
             for t, task in enumerate(CONSTRAINT_TASKS):
                 rng = np.random.default_rng(7919 * g + 31 * c + t)
@@ -139,7 +147,7 @@ def constraint_cases(
                     "prompts": [{"time": 0.0, "text": prompt}],
                     "constraints": _constraints(task, crop, fps, joints),
                 }
-                job = Job(timeline, frames / fps, seed=100 * g + 10 * c + t)
+                job = Job(timeline, length / fps, seed=100 * g + 10 * c + t)
                 cases.append(
                     Case(
                         task,
@@ -148,7 +156,7 @@ def constraint_cases(
                         0,
                         job,
                         reference=crop,
-                        frames=constrained_frames(task, frames, fps),
+                        frames=constrained_frames(task, length, fps),
                         joints=joints if task == "end_effectors" else [],
                     )
                 )
