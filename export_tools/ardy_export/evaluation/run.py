@@ -132,14 +132,18 @@ def text_section(ctx: Context) -> dict[str, Any]:
     cfg = ctx.config["text"]
     rows: dict[str, Any] = {"dataset (test split)": dataset_row(ctx)}
     cases = text_cases(ctx.groups, int(cfg["samples_per_label"]), ctx.frames / ctx.fps, 16)
-    for steps in cfg["steps"]:
-        jobs = [replace(c.job, steps=int(steps)) for c in cases]
-        motions = ctx.generate(f"text only, {steps} steps", jobs)
+    variants = [(int(s), None) for s in cfg["steps"]]
+    variants += [(int(s), 0.0) for s in cfg.get("unfiltered_steps", [])]
+    for steps, smoothing in variants:
+        name = f"ours, {steps} steps" + (", unfiltered" if smoothing is not None else "")
+        extra = [] if smoothing is None else ["--smoothing", f"{smoothing:g}"]
+        jobs = [replace(c.job, steps=steps, extra_args=extra) for c in cases]
+        motions = ctx.generate(f"text only ({name})", jobs)
         row = ctx.motion_row(
             [m.positions for m in motions], [c.group for c in cases], [c.sentence for c in cases]
         )
         row["cli_seconds_per_rollout"] = float(np.mean([m.wall_seconds for m in motions]))
-        rows[f"ours, {steps} steps"] = row
+        rows[name] = row
     chance = metrics.r_precision_chance(3, 32)
     return {"rows": rows, "r_precision_chance": chance, "labels": len(ctx.groups)}
 
