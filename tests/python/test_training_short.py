@@ -260,3 +260,37 @@ def test_cli_train_checkpoints_and_resumes(tmp_path: Path) -> None:
     with np.load(out) as arrays:
         assert arrays["features"].shape == (80, 258)
         assert arrays["positions"].shape == (80, 21, 3)
+    # Slim the checkpoint, then fine-tune from it: the tokenizer, statistics and sizes come
+    # from the slim checkpoint, the weights start where it left off.
+    slim = tmp_path / "slim.pt"
+    assert (
+        cli_main(
+            [
+                "slim",
+                "--checkpoint",
+                str(tmp_path / "den" / "final.pt"),
+                "--out",
+                str(slim),
+            ]
+        )
+        == 0
+    )
+    full = torch.load(tmp_path / "den" / "final.pt", weights_only=False)
+    small = torch.load(slim, weights_only=False)
+    assert "optimizer" not in small and "model" not in small and "ema" in small
+    assert slim.stat().st_size < 0.6 * (tmp_path / "den" / "final.pt").stat().st_size
+    tune_cfg = {k: v for k, v in den_cfg.items() if k not in ("tokenizer_checkpoint", "model")}
+    tune_cfg.update(run_dir=str(tmp_path / "tune"), init_from=str(slim))
+    tune_cfg["train"] = {**den_cfg["train"], "steps": 2, "checkpoint_every": 1}
+    tune_path = tmp_path / "tune.yaml"
+    tune_path.write_text(yaml.safe_dump(tune_cfg))
+    assert cli_main(["train", "denoiser", "--config", str(tune_path), "--quiet"]) == 0
+    tuned = torch.load(tmp_path / "tune" / "final.pt", weights_only=False)
+    assert tuned["denoiser_config"] == full["denoiser_config"]
+    assert tuned["latent_stats"] == full["latent_stats"]
+    for key, value in full["tokenizer"].items():
+        assert torch.equal(tuned["tokenizer"][key], value)
+    # Two steps move the weights only a little from the slim checkpoint's EMA weights.
+    name = next(iter(small["ema"]))
+    start = small["ema"][name]
+    assert torch.allclose(tuned["model"][name], start, atol=0.05)

@@ -84,6 +84,14 @@ def _sample(args: argparse.Namespace) -> int:
     return 0
 
 
+def _slim(args: argparse.Namespace) -> int:
+    from ardy_export.training.common import slim_checkpoint
+
+    out = slim_checkpoint(Path(args.checkpoint), Path(args.out))
+    print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB)")
+    return 0
+
+
 def add_training_commands(commands: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     train = commands.add_parser(
         "train",
@@ -104,6 +112,17 @@ def add_training_commands(commands: argparse._SubParsersAction) -> None:  # type
     train.add_argument("--device", choices=("auto", "cpu", "cuda"), help="override device")
     train.add_argument("--quiet", action="store_true", help="no progress bar")
     train.set_defaults(handler=_train)
+
+    slim = commands.add_parser(
+        "slim",
+        help="keep what sampling and export need of a denoiser checkpoint (EMA weights)",
+        description="Drops the raw weights, optimizer, scheduler and random states of a "
+        "denoiser checkpoint: what 'export', 'sample' and init_from read remains (a third of "
+        "the size).",
+    )
+    slim.add_argument("--checkpoint", required=True, help="denoiser checkpoint (.pt)")
+    slim.add_argument("--out", required=True, help="slim checkpoint to write")
+    slim.set_defaults(handler=_slim)
 
     sample = commands.add_parser(
         "sample",

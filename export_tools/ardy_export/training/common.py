@@ -178,6 +178,19 @@ def save_checkpoint(path: Path, state: dict[str, Any]) -> None:
     tmp.replace(path)
 
 
+# What a slim denoiser checkpoint drops: training state only.
+TRAINING_ONLY_KEYS = ("model", "optimizer", "scheduler", "rng")
+
+
+def slim_checkpoint(path: Path, out: Path) -> Path:
+    """Writes ``path`` without ``TRAINING_ONLY_KEYS`` to ``out`` (the EMA weights stay)."""
+    ckpt = torch.load(path, map_location="cpu", weights_only=False)
+    if ckpt.get("kind") != "denoiser" or ckpt.get("ema") is None:
+        raise ValueError(f"{path}: not a denoiser checkpoint with EMA weights")
+    save_checkpoint(out, {k: v for k, v in ckpt.items() if k not in TRAINING_ONLY_KEYS})
+    return out
+
+
 def rng_state(rng: np.random.Generator, gen: torch.Generator) -> dict[str, Any]:
     return {
         "numpy": rng.bit_generator.state,
