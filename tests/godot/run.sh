@@ -14,11 +14,11 @@ trap 'rm -rf "$WORK"' EXIT
 [ -f "$ADDON/bin/libardy.linux.template_debug.x86_64.so" ] || {
   echo "tests/godot: the extension is not built (run scripts/test.sh)" >&2; exit 2; }
 
-# The project gets the built addon and the test graphs (both ignored by git).
+# The project gets the built addon with the shipped default model, and the test
+# graphs (both ignored by git).
 rm -rf "$PROJECT/addons" "$PROJECT/fixtures"
 mkdir -p "$PROJECT/addons" "$PROJECT/fixtures/model"
 cp -r "$ADDON" "$PROJECT/addons/"
-rm -rf "$PROJECT/addons/ardy/models"
 cp "$ROOT/tests/data/foundation/mlp.onnx" "$PROJECT/fixtures/mlp.onnx"
 # The tiny test package (model.json, graphs, vocabulary) as a model folder.
 cp "$ROOT"/tests/data/tiny_package/{model.json,*.onnx,vocab.txt} "$PROJECT/fixtures/model/"

@@ -1,6 +1,9 @@
 extends Node
 ## Main scene of the exported .pck: proves that the packed game loads the
-## extension and reads a model graph from res:// inside the pack.
+## extension and reads a model graph, the tiny test package and the shipped
+## default model from res:// inside the pack.
+
+const DEFAULT_MODEL := "res://addons/ardy/models/default"
 
 var passed := 0
 var failed := 0
@@ -27,6 +30,14 @@ func _ready() -> void:
 			loaded,
 			(
 				"load_model reads a model package from the pack: "
+				+ str(generator.call("get_last_error"))
+			)
+		)
+		loaded = generator.call("load_model", DEFAULT_MODEL)
+		_check(
+			loaded and generator.call("get_joint_names").size() == 21,
+			(
+				"load_model reads the shipped default model from the pack: "
 				+ str(generator.call("get_last_error"))
 			)
 		)

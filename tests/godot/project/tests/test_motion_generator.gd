@@ -182,6 +182,17 @@ func test_bones_without_skeleton_report_clearly() -> void:
 	generator.free()
 
 
+func test_shipped_default_model_loads() -> void:
+	var generator := MotionGenerator.new()
+	var loaded := generator.load_model("res://addons/ardy/models/default")
+	check(loaded, "the shipped model loads: " + generator.get_last_error())
+	check_eq(generator.get_loaded_graphs(), PackedStringArray(PACKAGE_GRAPHS), "its graphs")
+	var joints := generator.get_joint_names()
+	check_eq(joints.size(), 21, "21 joints")
+	check(joints.has("Hand_L") and joints.has("Toes_R"), "joint names: " + str(joints))
+	generator.free()
+
+
 func test_missing_model_gives_clear_error() -> void:
 	var generator := MotionGenerator.new()
 	var messages: Array[String] = []
