@@ -501,6 +501,28 @@ class Raster {
                constraint);
   }
 
+  // GoalSpec::interpolate_root: anchor is the root (x, z) of the frame before the first.
+  void interpolate_root(const glm::dvec2& anchor) {
+    const size_t m = layout_.feature_size, px = layout_.root_position.start, pz = px + 2;
+    long long previous = -1;
+    glm::dvec2 from = anchor;
+    for (size_t f = 0; f < count_; ++f) {
+      if (!(mask_[f * m + px] > 0.0 && mask_[f * m + pz] > 0.0)) continue;
+      const glm::dvec2 to{goal_[f * m + px], goal_[f * m + pz]};
+      const long long target = static_cast<long long>(f);
+      for (long long k = previous + 1; k < target; ++k) {
+        const double a = static_cast<double>(k - previous) / static_cast<double>(target - previous);
+        const size_t at = static_cast<size_t>(k) * m;
+        goal_[at + px] = from.x + a * (to.x - from.x);
+        goal_[at + pz] = from.y + a * (to.y - from.y);
+        mask_[at + px] = 1.0;
+        mask_[at + pz] = 1.0;
+      }
+      previous = target;
+      from = to;
+    }
+  }
+
   const std::vector<double>& goal() const { return goal_; }
   const std::vector<double>& mask() const { return mask_; }
 
@@ -585,6 +607,7 @@ WindowGoals window_goals_impl(Each&& each, int64_t window_start, const glm::dvec
     if (last < window_start || first >= end) return;  // passed or waiting
     raster.add(c);
   });
+  if (spec.interpolate_root) raster.interpolate_root(offset);
   return finish_goals(raster, offset, spec);
 }
 

@@ -199,6 +199,11 @@ struct GoalSpec {
   size_t patch = 0;
   size_t window_tokens = 0;
   size_t future_limit_tokens = 0;
+  // Fill the root's x and z between sparse root targets (waypoints, keyframe
+  // roots): linear from offset_xz (the root of the frame before the window) to
+  // the first target, then between consecutive targets. The model follows
+  // dense root paths far better than isolated targets (docs/evaluation).
+  bool interpolate_root = false;
 };
 
 // constraints.py window_goals: rasterizes the frames [window_start,

@@ -601,6 +601,7 @@ void ModelPackage::Impl::parse(const Manifest& m) {
     }
     defaults.output_smoothing_frames = sigma;
   }
+  if (m.has("sampling.interpolate_root")) defaults.interpolate_root = m.boolean("sampling.interpolate_root");
 
   // --- text ---------------------------------------------------------------------------------
   text.graph_file = m.string("text.graph");

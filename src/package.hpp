@@ -63,6 +63,7 @@ struct SamplingDefaults {
   float w_con = 2.0f;
   size_t decode_context_tokens = 4;
   double output_smoothing_frames = 0.0;  // motion_filter.hpp; optional in model.json (absent: off)
+  bool interpolate_root = false;         // GoalSpec::interpolate_root; optional in model.json (absent: off)
 };
 
 // The names and signature of one graph (graphs.<key> of model.json).

@@ -156,6 +156,7 @@ Planner::Planner(std::shared_ptr<const ModelPackage> package, PlannerConfig conf
   if (config_.future_seconds) s.future_tokens = std::min(tokens_of(*config_.future_seconds), t.max_future);
   if (config_.decode_context_tokens > 0) s.decode_context_tokens = config_.decode_context_tokens;
   s.start_xz = config_.start_xz;
+  s.interpolate_root = config_.interpolate_root;
   s.seed = config_.seed;
   smoothing_frames_ = config_.output_smoothing_frames.value_or(package_->sampling_defaults().output_smoothing_frames);
   rollout_ = with_context("Planner config", [&] { return std::make_unique<Rollout>(package_, s); });

@@ -109,6 +109,7 @@ struct PlannerConfig {
   std::optional<double> future_seconds;       // out-of-window goals (default and limit: tokens.max_future)
   size_t decode_context_tokens = 0;           // 0: the package default
   std::optional<double> output_smoothing_frames;  // output filter sigma (motion_filter.hpp); default: the package's
+  std::optional<bool> interpolate_root;           // GoalSpec::interpolate_root; default: the package's
   glm::dvec2 start_xz{0.0, 0.0};              // where the character starts
   uint64_t seed = 0;                          // noise of the windows
   // Replan buffer and queue.

@@ -55,6 +55,7 @@ RolloutConfig Rollout::resolve(const RolloutSettings& s) const {
   }
   c.start_xz = s.start_xz;
   c.root_overwrite = s.root_overwrite;
+  c.interpolate_root = s.interpolate_root.value_or(d.interpolate_root);
   c.seed = s.seed;
   return c;
 }
@@ -216,6 +217,7 @@ WindowInput Rollout::prepare_window() const {
   spec.patch = t.patch;
   spec.window_tokens = t.window;
   spec.future_limit_tokens = config_.future_tokens;
+  spec.interpolate_root = config_.interpolate_root;
   in.goals = window_goals(constraints_, in.start_frame, in.offset, spec);
   in.steps = config_.steps;
   in.w_text = config_.w_text;

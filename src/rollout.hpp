@@ -55,6 +55,7 @@ struct RolloutSettings {
   std::optional<size_t> commit_tokens;  // 1..window; default: the whole window
   glm::dvec2 start_xz{0.0, 0.0};        // model origin before any history
   bool root_overwrite = true;
+  std::optional<bool> interpolate_root;  // GoalSpec::interpolate_root; default: the package's
   uint64_t seed = 0;
 };
 
@@ -69,6 +70,7 @@ struct RolloutConfig {
   size_t commit_tokens = 0;
   glm::dvec2 start_xz{0.0, 0.0};
   bool root_overwrite = true;
+  bool interpolate_root = false;
   uint64_t seed = 0;
 };
 

@@ -313,6 +313,7 @@ def _write_test_package(out: Path, seed: int, windows: int) -> dict[str, Any]:
         provenance={"kind": "tiny random-weight test package", "seed": seed},
         tiny_text_seed=seed,
         output_smoothing_frames=0.0,  # the goldens are the model's raw output
+        interpolate_root=False,  # and its goals the constraints as given
     )
     # The commit differs from run to run; the golden files must not.
     description["provenance"].pop("commit", None)

@@ -342,13 +342,16 @@ def export_package(
     text_max_tokens: int | None = None,
     text_weights: str = "float32",
     output_smoothing_frames: float = OUTPUT_SMOOTHING_FRAMES,
+    interpolate_root: bool = True,
 ) -> dict[str, Any]:
     """Writes a complete, checked model package into ``out_dir``; returns its model.json.
 
     ``tiny_text_seed`` puts a tiny random-weight text encoder (same interface and vocabulary)
     in place of all-MiniLM-L6-v2, for test packages. ``text_weights`` is the text encoder's
     weight format (``text.export.WEIGHT_FORMATS``; "int8" for shipped packages).
-    ``output_smoothing_frames`` is the runtime's output filter (src/motion_filter.hpp).
+    ``output_smoothing_frames`` is the runtime's output filter (src/motion_filter.hpp);
+    ``interpolate_root`` makes the runtime turn sparse root targets into paths
+    (``sampling.constraints.interpolate_root``).
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -360,5 +363,6 @@ def export_package(
     info = {"commit": _git_commit(), **(provenance or {}), "parity_max_abs_error": errors}
     description = model_json(bundle, out, text, info)
     description["sampling"]["output_smoothing_frames"] = float(output_smoothing_frames)
+    description["sampling"]["interpolate_root"] = bool(interpolate_root)
     (out / MODEL_FILE).write_text(json.dumps(description, indent=1) + "\n", encoding="utf-8")
     return description

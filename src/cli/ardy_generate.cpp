@@ -5,6 +5,7 @@
 //                 [--seed N] [--steps K] [--threads N] [--out-bvh out.bvh]
 //                 [--out-json out.json] [--w-text W] [--w-con W]
 //                 [--commit-tokens N] [--history-seconds S] [--smoothing S]
+//                 [--interpolate-root on|off]
 //
 // The timeline schema is timeline.hpp's (export_tools' timeline.py). Exit
 // codes: 0 success, 1 a runtime failure (bad model, bad timeline, I/O), 2 bad
@@ -44,7 +45,7 @@ constexpr const char* kUsage =
     "usage: ardy-generate --model DIR --timeline TIMELINE.json --seconds S [--seed N] [--steps K]\n"
     "                     [--out-bvh out.bvh] [--out-json out.json] [--threads N]\n"
     "                     [--w-text W] [--w-con W] [--commit-tokens N] [--history-seconds S]\n"
-    "                     [--smoothing S]\n"
+    "                     [--smoothing S] [--interpolate-root on|off]\n"
     "\n"
     "  --model DIR            model package folder (model.json, graphs, vocab.txt)\n"
     "  --timeline FILE        JSON timeline: {\"prompts\": [{\"time\", \"text\"}], \"constraints\": [...]}\n"
@@ -57,7 +58,9 @@ constexpr const char* kUsage =
     "  --w-text W, --w-con W  guidance weights (default: the package's)\n"
     "  --commit-tokens N      tokens kept per window, 1..window (default: the whole window)\n"
     "  --history-seconds S    history length (default and maximum: the model's)\n"
-    "  --smoothing S          output filter sigma in frames, 0 = raw model output (default: the package's)\n";
+    "  --smoothing S          output filter sigma in frames, 0 = raw model output (default: the package's)\n"
+    "  --interpolate-root on|off  turn sparse root targets (waypoints, keyframe roots) into a path from\n"
+    "                         the character's position (default: the package's)\n";
 
 // A bad command line: exit code 2.
 struct UsageError {
@@ -95,6 +98,7 @@ struct Arguments {
   std::optional<size_t> commit_tokens;
   std::optional<double> history_seconds;
   std::optional<double> smoothing;
+  std::optional<bool> interpolate_root;
 };
 
 Arguments parse_arguments(int argc, char** argv) {
@@ -102,7 +106,7 @@ Arguments parse_arguments(int argc, char** argv) {
   const std::vector<std::string> known{"--model",  "--timeline", "--seconds",       "--seed",
                                        "--steps",  "--out-bvh",  "--out-json",      "--threads",
                                        "--w-text", "--w-con",    "--commit-tokens", "--history-seconds",
-                                       "--smoothing"};
+                                       "--smoothing", "--interpolate-root"};
   for (int i = 1; i < argc; ++i) {
     std::string arg = argv[i];
     std::string value;
@@ -161,6 +165,11 @@ Arguments parse_arguments(int argc, char** argv) {
   if (values.count("--commit-tokens")) a.commit_tokens = static_cast<size_t>(integer("--commit-tokens", 1, 100000));
   if (values.count("--history-seconds")) a.history_seconds = number("--history-seconds", 0.0, 3600.0);
   if (values.count("--smoothing")) a.smoothing = number("--smoothing", 0.0, 10.0);
+  if (values.count("--interpolate-root")) {
+    const std::string v = need("--interpolate-root");
+    if (v != "on" && v != "off") throw UsageError{"--interpolate-root must be on or off, got '" + v + "'"};
+    a.interpolate_root = v == "on";
+  }
   return a;
 }
 
@@ -321,6 +330,7 @@ int run(const Arguments& args) {
   settings.w_text = args.w_text;
   settings.w_con = args.w_con;
   settings.commit_tokens = args.commit_tokens;
+  settings.interpolate_root = args.interpolate_root;
   if (args.history_seconds) {
     settings.history_tokens =
         static_cast<size_t>(std::llround(*args.history_seconds * package->fps() / double(t.patch)));

@@ -303,6 +303,40 @@ TEST_CASE("window goals: re-centred, normalized, patchified, later constraints o
   CHECK(future_only.future_tokens == 3);
 }
 
+TEST_CASE("window goals: interpolate_root turns sparse root targets into a path from the character",
+          "[constraints][goals]") {
+  const ardy::Normalization norm = unit_stats();
+  ardy::GoalSpec s = spec(norm);
+  s.interpolate_root = true;
+  std::vector<Constraint> constraints;
+  constraints.push_back(RootWaypoint{49, 3.0, 4.0, 0.5});  // frame 9 of the window (start 40)
+  constraints.push_back(RootWaypoint{59, 5.0, 4.0, std::nullopt});
+  constraints.push_back(FootContact{42, 44, {0}, 1.0});
+  const glm::dvec2 anchor{1.0, 2.0};  // the root of frame 39
+  const WindowGoals g = ardy::window_goals(constraints, 40, anchor, s);
+  // From the anchor (frame -1) to the first waypoint over 10 frames, re-centred on the anchor.
+  for (size_t f = 0; f <= 9; ++f) {
+    INFO("frame " << f);
+    const double a = double(f + 1) / 10.0;
+    CHECK_THAT(goal_at(g, f, 0), WithinAbs((1.0 + a * 2.0) - 1.0, 1e-6));
+    CHECK_THAT(goal_at(g, f, 2), WithinAbs((2.0 + a * 2.0) - 2.0, 1e-6));
+    CHECK(goal_at(g, f, 0, true) == 1.0f);
+    CHECK(goal_at(g, f, 1, true) == 0.0f);  // height stays free
+  }
+  CHECK(goal_at(g, 9, 3, true) == 1.0f);  // the waypoint's heading, only at its frame
+  CHECK(goal_at(g, 8, 3, true) == 0.0f);
+  // Then between the two waypoints.
+  CHECK_THAT(goal_at(g, 14, 0), WithinAbs(4.0 - 1.0, 1e-6));
+  CHECK_THAT(goal_at(g, 14, 2), WithinAbs(4.0 - 2.0, 1e-6));
+  // Nothing after the last target; other features untouched.
+  CHECK(goal_at(g, 20, 0, true) == 0.0f);
+  CHECK(count_mask(g.window_goal_mask) == 20 * 2 + 2 + 2);  // x, z of frames 0..19, heading, contacts
+  // Off (the default): only the targets' own frames.
+  const WindowGoals sparse = ardy::window_goals(constraints, 40, anchor, spec(norm));
+  CHECK(goal_at(sparse, 5, 0, true) == 0.0f);
+  CHECK(count_mask(sparse.window_goal_mask) == 2 + 2 + 2 + 2);
+}
+
 TEST_CASE("window goals: keyframes, root joint targets and rotations", "[constraints][goals]") {
   const ardy::Normalization norm = unit_stats();
   PoseKeyframe key;

@@ -46,6 +46,28 @@ def test_waypoint_inside_the_window_is_recentered_and_normalized() -> None:
     assert np.all(g.window_goal[g.window_goal_mask == 0] == 0)
 
 
+def test_interpolate_turns_sparse_root_targets_into_a_path_from_the_character() -> None:
+    # The same case as test_constraints.cpp's (unit statistics, start 40, anchor (1, 2)).
+    zero, one = np.zeros(M, np.float32), np.ones(M, np.float32)
+    targets = [
+        RootWaypoint(49, 3.0, 4.0, 0.5),
+        RootWaypoint(59, 5.0, 4.0),
+        FootContact(42, 44, (0,), 1.0),
+    ]
+    g = window_goals(targets, 40, (1.0, 2.0), zero, one, C, 4, interpolate=True)
+    for f in range(10):
+        a = (f + 1) / 10
+        assert np.isclose(_at(g.window_goal, f, 0), a * 2.0)
+        assert np.isclose(_at(g.window_goal, f, 2), a * 2.0)
+        assert _at(g.window_goal_mask, f, 1) == 0
+    assert _at(g.window_goal_mask, 8, 3) == 0 and _at(g.window_goal_mask, 9, 3) == 1
+    assert np.isclose(_at(g.window_goal, 14, 0), 3.0) and np.isclose(_at(g.window_goal, 14, 2), 2.0)
+    assert _at(g.window_goal_mask, 20, 0) == 0
+    assert g.window_goal_mask.sum() == 20 * 2 + 2 + 2
+    sparse = window_goals(targets, 40, (1.0, 2.0), zero, one, C, 4)
+    assert sparse.window_goal_mask.sum() == 2 + 2 + 2 + 2
+
+
 def test_future_goals_are_cut_after_the_last_constrained_token() -> None:
     start = 40
     wp = RootWaypoint(frame=start + C * P + 2 * P + 1, x=1.0, z=1.0)  # future token 2

@@ -201,6 +201,20 @@ class WindowGoals:
         return int(self.future_mask.shape[0])
 
 
+def interpolate_root(goal: np.ndarray, mask: np.ndarray, anchor_xz: Sequence[float]) -> None:
+    """Fills the root's x and z between sparse root targets, in place: linear from
+    ``anchor_xz`` (the root of the frame before the first) to the first target, then between
+    consecutive targets (src/constraints.hpp GoalSpec::interpolate_root)."""
+    previous, start = -1, np.asarray(anchor_xz, dtype=np.float64)
+    for f in np.flatnonzero((mask[:, 0] > 0.0) & (mask[:, 2] > 0.0)):
+        target = goal[f, [0, 2]].copy()
+        for k in range(previous + 1, f):
+            a = (k - previous) / (f - previous)
+            goal[k, [0, 2]] = start + a * (target - start)
+            mask[k, [0, 2]] = 1.0
+        previous, start = int(f), target
+
+
 def window_goals(
     constraints: Sequence[Constraint],
     window_start: int,
@@ -210,11 +224,15 @@ def window_goals(
     window_tokens: int,
     future_limit_tokens: int,
     patch: int = L.PATCH,
+    interpolate: bool = False,
 ) -> WindowGoals:
-    """Convert world-space constraints into one window's goal tensors (module docstring)."""
+    """Convert world-space constraints into one window's goal tensors (module docstring);
+    ``interpolate`` first turns sparse root targets into a path (``interpolate_root``)."""
     tokens = window_tokens + future_limit_tokens
     frames = tokens * patch
     goal, mask = rasterize(constraints, window_start, frames)
+    if interpolate:
+        interpolate_root(goal, mask, offset_xz)
     goal[:, 0] -= offset_xz[0]
     goal[:, 2] -= offset_xz[1]
     norm = (goal - np.asarray(mean, dtype=np.float64)) / np.asarray(std, dtype=np.float64)

@@ -290,6 +290,7 @@ class RolloutConfig:
     commit_tokens: int | None = None  # tokens kept per window (default: the whole window)
     start_xz: tuple[float, float] = (0.0, 0.0)
     root_overwrite: bool = True
+    interpolate_root: bool = False  # constraints.interpolate_root on every window's goals
 
 
 @dataclass
@@ -374,7 +375,9 @@ def rollout(
             if text not in cache:
                 cache[text] = np.asarray(embed(text), dtype=np.float32)
             emb = cache[text]
-        goals = window_goals(constraints, start, offset, mean, std, c, cfg.future_tokens, p)
+        goals = window_goals(
+            constraints, start, offset, mean, std, c, cfg.future_tokens, p, cfg.interpolate_root
+        )
         win_noise = (
             noise[w].astype(np.float32)
             if noise is not None
