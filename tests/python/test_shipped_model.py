@@ -35,6 +35,7 @@ def test_the_package_is_complete_small_and_licensed(package: Path) -> None:
     model = json.loads((package / "model.json").read_text(encoding="utf-8"))
     assert model["text"]["weights"] == "int8"
     assert model["sampling"]["output_smoothing_frames"] > 0
+    assert model["sampling"]["interpolate_root"] is True
     licence = (package / "LICENSE.md").read_text(encoding="utf-8")
     assert "CC BY-NC 4.0" in licence and "Bandai Namco Research Inc." in licence
     card = (package / "MODEL_CARD.md").read_text(encoding="utf-8")

@@ -10,6 +10,8 @@ import numpy as np
 
 from ardy_export.models import layout as L
 
+# Suffix of the constraint rows run without the runtime's root interpolation (run.py).
+MODEL_ONLY = ", model only"
 # The acceptance bars of the "Train, evaluate and ship" issue.
 SKATE_RATIO_BAR = 1.5
 WAYPOINT_BAR_M = 0.15
@@ -69,9 +71,10 @@ def _constraint_lines(con: dict[str, Any]) -> list[str]:
     }
     rows = []
     for task, r in con["tasks"].items():
+        base, _, variant = task.partition(", ")
         rows.append(
             [
-                names.get(task, task),
+                names.get(base, base) + (f", {variant}" if variant else ""),
                 _f(r.get("error_m")),
                 _f(r.get("between_frames_error_m")),
                 _f(r.get("pose_error_m")),
@@ -93,7 +96,10 @@ def _constraint_lines(con: dict[str, Any]) -> list[str]:
         "only part of the way; *between frames* is the distance from the target to the "
         "midpoint of the frames just before and after it (large when the motion jumps "
         "towards the target for one frame instead of passing through it). *Pose*: keyframe "
-        "joints relative to the root's ground point.",
+        "joints relative to the root's ground point. Shipped packages turn sparse root "
+        "targets (waypoints, keyframe roots) into a straight path from the character's "
+        "position (`interpolate_root`); *model only* rows switch that off "
+        "(`--interpolate-root off`) and show what the model does with isolated targets.",
         "",
         *_table(
             [
@@ -253,24 +259,24 @@ def _bars_lines(results: dict[str, Any]) -> list[str]:
             f"{r_prec:.3f} vs chance {chance:.3f}",
             r_prec > 2 * chance,
         )
-    if "waypoints" in tasks:
-        for key, where in (
-            ("error_m", "at the frame"),
-            ("between_frames_error_m", "between frames"),
-        ):
-            value = tasks["waypoints"][key]
+    for suffix in ("", MODEL_ONLY):
+        where = f"; {suffix[2:]}" if suffix else ""
+        variant = f" ({suffix[2:]})" if suffix else ""
+        if "waypoints" + suffix in tasks:
+            row = tasks["waypoints" + suffix]
+            for key, at in (("error_m", "at the frame"), ("between_frames_error_m", "between")):
+                bar(
+                    f"waypoint error under {WAYPOINT_BAR_M} m ({at}{where})",
+                    f"{row[key]:.3f} m",
+                    row[key] < WAYPOINT_BAR_M,
+                )
+        if "keyframes" + suffix in tasks:
+            value = tasks["keyframes" + suffix]["error_m"]
             bar(
-                f"waypoint error under {WAYPOINT_BAR_M} m ({where})",
+                f"full-body keyframe error under {KEYFRAME_BAR_M} m{variant}",
                 f"{value:.3f} m",
-                value < WAYPOINT_BAR_M,
+                value < KEYFRAME_BAR_M,
             )
-    if "keyframes" in tasks:
-        value = tasks["keyframes"]["error_m"]
-        bar(
-            f"full-body keyframe error under {KEYFRAME_BAR_M} m",
-            f"{value:.3f} m",
-            value < KEYFRAME_BAR_M,
-        )
     return ["## Acceptance bars", "", *_table(["bar", "measured", ""], rows), ""]
 
 
@@ -422,7 +428,9 @@ def _ablation_row(name: str, results: dict[str, Any], steps: int = 4) -> list[st
     tasks = results.get("constraints", {}).get("tasks", {})
 
     def task(key: str, field: str) -> float | None:
-        return tasks.get(key, {}).get(field)
+        # The model's own constraint following: without the runtime's root interpolation
+        # (packages exported before it existed have it off in their plain rows).
+        return tasks.get(key + MODEL_ONLY, tasks.get(key, {})).get(field)
 
     return [
         name,
@@ -462,11 +470,13 @@ def write_ablation_table(runs: Path, main: Path | None, out: Path) -> Path:
         "## Ablations",
         "",
         "Each run on the same CPU budget (`scripts/run_ablations.sh`, configs in "
-        "`export_tools/configs/ablations/`): a 96 x 2 denoiser trained for 2,500 steps of 32 "
-        "windows on one core, on the shipped model's tokenizer (stage rows) or on a small "
-        "96 x 2 tokenizer of 1,500 steps of 64 (root rows, `--root`); evaluated like the "
-        "main model with fewer rollouts (4 per label, 1 crop per label), 4 DDIM steps. Rows "
-        "missing here were not run.",
+        "`export_tools/configs/ablations/`), on one core: a 96 x 2 denoiser trained for "
+        "2,500 steps of 32 windows on the shipped model's tokenizer (stage rows), or for "
+        "3,000 steps on a small 96 x 2 tokenizer of 1,500 steps of 64 (root rows, "
+        "`--root`); a pair differs only in what it ablates. Evaluated like the "
+        "main model with fewer rollouts (4 per label, 1 crop per label), 4 DDIM steps, "
+        "constraints without the runtime's root interpolation (the model's own following). "
+        "Rows missing here were not run.",
         "",
         *_table(header, rows),
         "",

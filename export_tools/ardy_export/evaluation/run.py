@@ -29,6 +29,7 @@ from ardy_export.data.features import heading_from_positions, positions_from_fea
 from ardy_export.data.rotations import matrix_from_rot6d, rotation_angle
 from ardy_export.evaluation import metrics
 from ardy_export.evaluation.generate import CliRunner, Generated, Job, find_cli
+from ardy_export.evaluation.report import MODEL_ONLY
 from ardy_export.evaluation.retrieval import Evaluator
 from ardy_export.evaluation.tasks import (
     Case,
@@ -194,15 +195,22 @@ def constraints_section(ctx: Context) -> dict[str, Any]:
     cases = constraint_cases(
         ctx.clips, ctx.frames, ctx.fps, int(cfg["clips_per_group"]), ctx.min_frames
     )
-    motions = ctx.generate("constraints", [c.job for c in cases])
+    # The package's settings, then (model_only) without the runtime's root interpolation.
+    variants = [("", [])]
+    if cfg.get("model_only", False):
+        variants.append((MODEL_ONLY, ["--interpolate-root", "off"]))
     tasks: dict[str, Any] = {}
-    for task in dict.fromkeys(c.task for c in cases):
-        pairs = [(c, m) for c, m in zip(cases, motions, strict=True) if c.task == task]
-        errors = [constraint_errors(c, m) for c, m in pairs]
-        row = {k: float(np.mean([e[k] for e in errors])) for k in errors[0]}
-        row["foot_skate"] = metrics.foot_skate([m.positions for _, m in pairs], ctx.feet, ctx.fps)
-        row["count"] = len(pairs)
-        tasks[task] = row
+    for suffix, extra in variants:
+        jobs = [replace(c.job, extra_args=extra) for c in cases]
+        motions = ctx.generate("constraints" + suffix, jobs)
+        for task in dict.fromkeys(c.task for c in cases):
+            pairs = [(c, m) for c, m in zip(cases, motions, strict=True) if c.task == task]
+            errors = [constraint_errors(c, m) for c, m in pairs]
+            row = {k: float(np.mean([e[k] for e in errors])) for k in errors[0]}
+            positions = [m.positions for _, m in pairs]
+            row["foot_skate"] = metrics.foot_skate(positions, ctx.feet, ctx.fps)
+            row["count"] = len(pairs)
+            tasks[task + suffix] = row
     reals = [positions_from_features(c.reference) for c in cases if c.task == "root"]
     return {"tasks": tasks, "dataset_foot_skate": metrics.foot_skate(reals, ctx.feet, ctx.fps)}
 
