@@ -206,8 +206,8 @@ def test_report_lists_every_section_and_marks_missed_bars(tmp_path: Path) -> Non
                 }
             ],
             "sheet": {
-                "d/walk/normal": [walk.tolist()],
-                "d/run/normal": [(walk + rng.normal(0, 0.01, walk.shape)).tolist()],
+                "d/walk/normal": report.sheet_entry(walk, L.FPS),
+                "d/run/normal": report.sheet_entry(walk + rng.normal(0, 0.01, walk.shape), L.FPS),
             },
             "prompts": {"d/walk/normal": "a person walks", "d/run/normal": "a person runs"},
         },

@@ -364,12 +364,26 @@ def _facing_front(pose: np.ndarray) -> np.ndarray:
     return centred @ np.asarray(turn).T
 
 
+SHEET_POSES = 6
+
+
+def sheet_entry(positions: np.ndarray, fps: float) -> dict[str, Any]:
+    """What the contact sheet draws of one rollout: ``SHEET_POSES`` evenly spaced poses and
+    the root's ground path."""
+    frames = np.linspace(0, len(positions) - 1, SHEET_POSES).astype(int)
+    return {
+        "times": (frames / fps).tolist(),
+        "poses": positions[frames].tolist(),
+        "path": positions[:, 0, [0, 2]].tolist(),
+    }
+
+
 def _plot_sheet(con: dict[str, Any], path: Path) -> None:
     """One row per prompt: poses every 1.2 s seen from the front, side by side, and the
     ground path from above."""
     plt = _pyplot()
     labels = list(con["sheet"])
-    poses, spacing = 6, 1.1
+    spacing = 1.1
     fig, axes = plt.subplots(
         len(labels),
         2,
@@ -379,26 +393,27 @@ def _plot_sheet(con: dict[str, Any], path: Path) -> None:
         squeeze=False,
     )
     for row, label in enumerate(labels):
-        p = np.asarray(con["sheet"][label][0])
+        entry = con["sheet"][label]
         ax = axes[row, 0]
-        for col, t in enumerate(np.linspace(0, len(p) - 1, poses).astype(int)):
-            pose = _facing_front(p[t]) + np.array([col * spacing, 0.0, 0.0])
+        for col, (t, shown) in enumerate(zip(entry["times"], entry["poses"], strict=True)):
+            pose = _facing_front(np.asarray(shown)) + np.array([col * spacing, 0.0, 0.0])
             for j, parent in enumerate(L.PARENTS):
                 if parent >= 0:
                     ax.plot(pose[[parent, j], 0], pose[[parent, j], 1], color="k", lw=1.2)
             for hand, color in (("Hand_L", "tab:red"), ("Hand_R", "tab:blue")):
                 k = L.JOINT_NAMES.index(hand)
                 ax.plot(pose[k, 0], pose[k, 1], "o", ms=3.5, color=color)
-            ax.text(col * spacing, -0.22, f"{t / L.FPS:.1f} s", fontsize=6, ha="center")
-        ax.set_xlim(-0.6, (poses - 1) * spacing + 0.6)
+            ax.text(col * spacing, -0.22, f"{t:.1f} s", fontsize=6, ha="center")
+        ax.set_xlim(-0.6, (len(entry["poses"]) - 1) * spacing + 0.6)
         ax.set_ylim(-0.3, 2.0)
         ax.set_aspect("equal")
         ax.axis("off")
         ax.set_title(con["prompts"][label], fontsize=8, loc="left")
         ax = axes[row, 1]
-        ax.plot(p[:, 0, 0], p[:, 0, 2], color="tab:green", lw=1)
-        ax.plot(p[0, 0, 0], p[0, 0, 2], "o", ms=3, color="tab:green")
-        reach = max(1.0, float(np.abs(p[:, 0, [0, 2]]).max()) * 1.1)
+        ground = np.asarray(entry["path"])
+        ax.plot(ground[:, 0], ground[:, 1], color="tab:green", lw=1)
+        ax.plot(ground[0, 0], ground[0, 1], "o", ms=3, color="tab:green")
+        reach = max(1.0, float(np.abs(ground).max()) * 1.1)
         ax.set_xlim(-reach, reach)
         ax.set_ylim(-reach, reach)
         ax.set_aspect("equal")

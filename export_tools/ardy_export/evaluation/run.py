@@ -29,7 +29,7 @@ from ardy_export.data.features import heading_from_positions, positions_from_fea
 from ardy_export.data.rotations import matrix_from_rot6d, rotation_angle
 from ardy_export.evaluation import metrics
 from ardy_export.evaluation.generate import CliRunner, Generated, Job, find_cli
-from ardy_export.evaluation.report import MODEL_ONLY
+from ardy_export.evaluation.report import MODEL_ONLY, sheet_entry
 from ardy_export.evaluation.retrieval import Evaluator
 from ardy_export.evaluation.tasks import (
     Case,
@@ -420,7 +420,7 @@ def contrasts_section(ctx: Context) -> dict[str, Any]:
             row["/".join(own)] = {k: float(np.mean([x[k] for x in measures])) for k in measures[0]}
         row["evaluator_tells_apart"] = correct / (2 * samples)
         rows.append(row)
-    sheet = {"/".join(lab): [m.positions.tolist() for m in by_label[lab][:1]] for lab in labels}
+    sheet = {"/".join(lab): sheet_entry(by_label[lab][0].positions, ctx.fps) for lab in labels}
     return {
         "pairs": rows,
         "samples": samples,
@@ -452,7 +452,18 @@ def evaluate(
     model_json = json.loads((Path(config["model"]) / "model.json").read_text())
     results["model"] = {"path": config["model"], "provenance": model_json.get("provenance", {})}
     for name in sections or SECTIONS:
-        results[name] = SECTIONS[name](ctx)
-        path.write_text(json.dumps(results, indent=1) + "\n", encoding="utf-8")
+        results[name] = _rounded(SECTIONS[name](ctx))
+        path.write_text(json.dumps(results, separators=(",", ":")) + "\n", encoding="utf-8")
         log(f"{name}: done -> {path}")
     return results
+
+
+def _rounded(value: Any) -> Any:  # noqa: ANN401 (JSON values)
+    """Floats to 5 decimals (0.01 mm, far below any figure reported), recursively."""
+    if isinstance(value, float):
+        return round(value, 5) if np.isfinite(value) else value
+    if isinstance(value, dict):
+        return {k: _rounded(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_rounded(v) for v in value]
+    return value
