@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 from collections.abc import Callable, Sequence
 from dataclasses import replace
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -106,19 +107,20 @@ class Context:
             "labels": len(by_label),
         }
 
-    @property
+    @cached_property
+    def real_crops(self) -> list[tuple[Group, np.ndarray]]:
+        """The test clips' crops: the real reference of FID and of the dataset row."""
+        return test_crops(self.clips, self.frames, self.frames // 2, self.min_frames)
+
+    @cached_property
     def real_embeddings(self) -> np.ndarray:
-        if not hasattr(self, "_real"):
-            crops = test_crops(self.clips, self.frames, self.frames // 2, self.min_frames)
-            self._real_crops = crops
-            self._real = self.evaluator.embed_motion([positions_from_features(c) for _, c in crops])
-        return self._real
+        return self.evaluator.embed_motion([positions_from_features(c) for _, c in self.real_crops])
 
 
 def dataset_row(ctx: Context) -> dict[str, float]:
     """The test crops measured like generated motion; FID between two random halves."""
     embeddings = ctx.real_embeddings
-    crops = ctx._real_crops
+    crops = ctx.real_crops
     rng = np.random.default_rng(0)
     sentences = [int(rng.integers(len(ctx.bank[g]))) for g, _ in crops]
     positions = [positions_from_features(c) for _, c in crops]
