@@ -3,7 +3,7 @@
 // The output filter: a Gaussian over time on decoded world features, applied
 // to the frames the runtime shows (never to what the model reads back as
 // history). The tokenizer decodes 4-frame patches whose seams make the raw
-// motion jerky (on the default model, jerk across a patch seam is 2.8x that
+// motion jerky (on the default model, jerk across a patch seam is 3.1x that
 // inside a patch, and 6x the dataset's overall); sigma = 1.5 frames brings the
 // jerk to the dataset's level (numbers in docs/evaluation).
 
