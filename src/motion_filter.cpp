@@ -23,11 +23,10 @@ std::vector<float> smooth_features(const FeatureLayout& layout, const float* con
   }
   const size_t left = context ? std::min(context_frames, radius) : 0;
   const float* first_context = left ? context + (context_frames - left) * m : nullptr;
-  // Row i of [left context frames; new frames], clamped at both ends.
+  const long long lo = -static_cast<long long>(left), last = static_cast<long long>(count) - 1;
+  // Row i of [left context frames; new frames]; before them the first one repeats.
   const auto row = [&](long long i) -> const float* {
-    const long long lo = -static_cast<long long>(left);
-    const long long hi = static_cast<long long>(count) - 1;
-    i = std::clamp(i, lo, hi);
+    i = std::max(i, lo);
     return i < 0 ? first_context + (i + static_cast<long long>(left)) * static_cast<long long>(m)
                  : frames + i * static_cast<long long>(m);
   };
@@ -37,8 +36,17 @@ std::vector<float> smooth_features(const FeatureLayout& layout, const float* con
     std::fill(sum.begin(), sum.end(), 0.0);
     double total = 0.0;
     for (size_t k = 0; k < weights.size(); ++k) {
-      const float* r = row(static_cast<long long>(f + k) - static_cast<long long>(radius));
-      for (size_t c = 0; c < m; ++c) sum[c] += weights[k] * r[c];
+      const long long i = static_cast<long long>(f + k) - static_cast<long long>(radius);
+      if (i <= last) {
+        const float* r = row(i);
+        for (size_t c = 0; c < m; ++c) sum[c] += weights[k] * r[c];
+      } else {
+        // Past the last frame the motion goes on as it was going (point reflection
+        // through the last frame): a window's end keeps its speed for the next one.
+        const float* end = row(last);
+        const float* mirror = row(2 * last - i);
+        for (size_t c = 0; c < m; ++c) sum[c] += weights[k] * (2.0 * end[c] - mirror[c]);
+      }
       total += weights[k];
     }
     float* o = out.data() + f * m;

@@ -17,7 +17,8 @@ namespace ardy {
 // Smoothed copy of `count` new frames of world features [count, M]. Up to
 // 3 sigma frames of `context` (the frames shown just before them,
 // [context_frames, M], left as they are) are read on the left; past the last
-// new frame the last frame repeats. Every feature but the foot contacts is
+// new frame the motion is continued by point reflection through it (so a
+// straight line stays straight up to the window's end). Every feature but the foot contacts is
 // filtered; the heading's (cos, sin) is renormalized. sigma_frames <= 0 copies.
 std::vector<float> smooth_features(const FeatureLayout& layout, const float* context, size_t context_frames,
                                    const float* frames, size_t count, double sigma_frames);

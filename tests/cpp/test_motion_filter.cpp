@@ -45,7 +45,7 @@ TEST_CASE("sigma 0 copies the frames", "[motion_filter]") {
   CHECK(ardy::smooth_features(kLayout, nullptr, 0, in.data(), 12, 0.0) == in);
 }
 
-TEST_CASE("a linear motion with its past as context passes unchanged except at the open end",
+TEST_CASE("a linear motion with its past as context passes unchanged, up to the open end",
           "[motion_filter]") {
   const size_t m = kLayout.feature_size;
   const std::vector<float> past = ramp(10, 0.05, 1.0, 0);
@@ -55,11 +55,9 @@ TEST_CASE("a linear motion with its past as context passes unchanged except at t
   REQUIRE(radius == 5);
   const std::vector<float> out = ardy::smooth_features(kLayout, past.data(), 10, now.data(), 20, sigma);
   const size_t column = kLayout.joint_positions.start + 7;
-  // A Gaussian keeps straight lines: every frame whose window lies inside the known frames.
-  for (size_t f = 0; f + radius < 20; ++f) CHECK(out[f * m + column] == Approx(now[f * m + column]).margin(1e-5));
-  // At the right end the last frame repeats: the line bends towards it (never past it).
-  CHECK(out[19 * m + column] < now[19 * m + column]);
-  CHECK(out[19 * m + column] > now[18 * m + column]);
+  // A Gaussian keeps straight lines, and the point reflection past the last frame continues
+  // them: every frame stays where it was (no slowing down at the window's end).
+  for (size_t f = 0; f < 20; ++f) CHECK(out[f * m + column] == Approx(now[f * m + column]).margin(1e-5));
   // Contacts are flags: never blended.
   for (size_t f = 0; f < 20; ++f) {
     for (size_t c = 0; c < kLayout.contact_count(); ++c) {
@@ -96,4 +94,14 @@ TEST_CASE("a window follows on from its context without a step", "[motion_filter
   const size_t column = kLayout.root_position.start + 1;
   CHECK(out[column] - past[7 * m + column] < 0.7 * (now[column] - past[7 * m + column]));
   CHECK(out[7 * m + column] == Approx(1.6 + 0.01 * column).margin(1e-3));
+  // A window that ends mid-turn keeps turning: the heading stays a unit vector.
+  std::vector<float> turning = ramp(8, 0.0, 1.0);
+  for (size_t f = 0; f < 8; ++f) {
+    turning[f * m + kLayout.heading.start] = static_cast<float>(std::cos(0.3 * double(f)));
+    turning[f * m + kLayout.heading.start + 1] = static_cast<float>(std::sin(0.3 * double(f)));
+  }
+  const std::vector<float> turned = ardy::smooth_features(kLayout, nullptr, 0, turning.data(), 8, 1.5);
+  const float c = turned[7 * m + kLayout.heading.start], s = turned[7 * m + kLayout.heading.start + 1];
+  CHECK(std::hypot(c, s) == Approx(1.0f).margin(1e-5));
+  CHECK(std::atan2(s, c) == Approx(2.1).margin(0.05));
 }
