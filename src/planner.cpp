@@ -158,7 +158,7 @@ Planner::Planner(std::shared_ptr<const ModelPackage> package, PlannerConfig conf
   s.start_xz = config_.start_xz;
   s.interpolate_root = config_.interpolate_root;
   s.seed = config_.seed;
-  smoothing_frames_ = config_.output_smoothing_frames.value_or(package_->sampling_defaults().output_smoothing_frames);
+  smoothing_frames_ = config_.output_smoothing_frames;
   rollout_ = with_context("Planner config", [&] { return std::make_unique<Rollout>(package_, s); });
   master_ = std::make_unique<MasterState>();
   master_->settings = s;
