@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "io.hpp"
+#include "json_text.hpp"
 
 namespace ardy {
 namespace {
@@ -26,14 +27,6 @@ constexpr int64_t kMaxSize = int64_t{1} << 24;
 
 std::string in_quotes(const std::string& s) { return "'" + s + "'"; }
 
-// A short description of a JSON value for "found ..." in messages.
-std::string describe(const json& value) {
-  if (value.is_array()) return "an array of " + std::to_string(value.size());
-  if (value.is_object()) return "an object";
-  std::string text = value.dump();
-  if (text.size() > 60) text = text.substr(0, 57) + "...";
-  return text;
-}
 
 // --- where the bytes come from ------------------------------------------------
 
@@ -132,7 +125,7 @@ class Manifest {
       const std::string key = path.substr(begin, dot - begin);
       if (!node->is_object()) {
         throw Error(file_ + ": " + (prefix.empty() ? std::string("the top level") : prefix) +
-                    " must be an object, found " + describe(*node));
+                    " must be an object, found " + describe_json(*node));
       }
       prefix += (prefix.empty() ? "" : ".") + key;
       const auto it = node->find(key);
@@ -152,11 +145,11 @@ class Manifest {
   }
 
   int64_t integer(const json& value, const std::string& path, int64_t min, int64_t max = kMaxSize) const {
-    if (!value.is_number_integer()) fail(path, "must be an integer, found " + describe(value));
+    if (!value.is_number_integer()) fail(path, "must be an integer, found " + describe_json(value));
     const bool huge = value.is_number_unsigned() && value.get<uint64_t>() > uint64_t(std::numeric_limits<int64_t>::max());
     const int64_t v = huge ? max : value.get<int64_t>();
     if (huge || v < min || v > max) {
-      fail(path, "is " + describe(value) + ", expected " + std::to_string(min) + ".." + std::to_string(max));
+      fail(path, "is " + describe_json(value) + ", expected " + std::to_string(min) + ".." + std::to_string(max));
     }
     return v;
   }
@@ -164,25 +157,25 @@ class Manifest {
     return static_cast<size_t>(integer(at(path), path, min, max));
   }
   double number(const json& value, const std::string& path) const {
-    if (!value.is_number()) fail(path, "must be a number, found " + describe(value));
+    if (!value.is_number()) fail(path, "must be a number, found " + describe_json(value));
     const double v = value.get<double>();
-    if (!std::isfinite(v)) fail(path, "must be finite, found " + describe(value));
+    if (!std::isfinite(v)) fail(path, "must be finite, found " + describe_json(value));
     return v;
   }
   double number(const std::string& path) const { return number(at(path), path); }
   bool boolean(const std::string& path) const {
     const json& value = at(path);
-    if (!value.is_boolean()) fail(path, "must be true or false, found " + describe(value));
+    if (!value.is_boolean()) fail(path, "must be true or false, found " + describe_json(value));
     return value.get<bool>();
   }
   std::string string(const json& value, const std::string& path) const {
-    if (!value.is_string()) fail(path, "must be a string, found " + describe(value));
+    if (!value.is_string()) fail(path, "must be a string, found " + describe_json(value));
     return value.get<std::string>();
   }
   std::string string(const std::string& path) const { return string(at(path), path); }
   const json& array(const std::string& path, size_t expected, const std::string& why) const {
     const json& value = at(path);
-    if (!value.is_array()) fail(path, "must be an array, found " + describe(value));
+    if (!value.is_array()) fail(path, "must be an array, found " + describe_json(value));
     if (value.size() != expected) {
       fail(path,
            "has " + std::to_string(value.size()) + " entries, expected " + std::to_string(expected) + " (" + why + ")");
@@ -196,7 +189,7 @@ class Manifest {
     for (size_t i = 0; i < value.size(); ++i) {
       const double v = number(value[i], path + "[" + std::to_string(i) + "]");
       if (std::fabs(v) > double(std::numeric_limits<float>::max())) {
-        fail(path + "[" + std::to_string(i) + "]", "is " + describe(value[i]) + ", outside the float32 range");
+        fail(path + "[" + std::to_string(i) + "]", "is " + describe_json(value[i]) + ", outside the float32 range");
       }
       out.push_back(static_cast<float>(v));
     }
@@ -277,13 +270,13 @@ std::string list_names(const std::vector<TensorInfo>& list) {
 // by name, -1 in shape).
 std::vector<TensorInfo> parse_signature(const Manifest& m, const std::string& path) {
   const json& list = m.at(path);
-  if (!list.is_array()) m.fail(path, "must be an array of {name, dtype, shape}, found " + describe(list));
+  if (!list.is_array()) m.fail(path, "must be an array of {name, dtype, shape}, found " + describe_json(list));
   std::vector<TensorInfo> out;
   std::set<std::string> names;
   for (size_t i = 0; i < list.size(); ++i) {
     const std::string at = path + "[" + std::to_string(i) + "]";
     const json& entry = list[i];
-    if (!entry.is_object()) m.fail(at, "must be an object {name, dtype, shape}, found " + describe(entry));
+    if (!entry.is_object()) m.fail(at, "must be an object {name, dtype, shape}, found " + describe_json(entry));
     TensorInfo info;
     if (!entry.contains("name")) throw Error(m.file() + ": missing field " + at + ".name");
     if (!entry.contains("dtype")) throw Error(m.file() + ": missing field " + at + ".dtype");
@@ -291,7 +284,7 @@ std::vector<TensorInfo> parse_signature(const Manifest& m, const std::string& pa
     info.name = m.string(entry["name"], at + ".name");
     info.dtype = m.string(entry["dtype"], at + ".dtype");
     const json& shape = entry["shape"];
-    if (!shape.is_array()) m.fail(at + ".shape", "must be an array, found " + describe(shape));
+    if (!shape.is_array()) m.fail(at + ".shape", "must be an array, found " + describe_json(shape));
     for (size_t d = 0; d < shape.size(); ++d) {
       const std::string dim_path = at + ".shape[" + std::to_string(d) + "]";
       if (shape[d].is_string()) {
@@ -416,7 +409,7 @@ void check_graph(const OnnxSession& session, const GraphSpec& spec, const std::s
 
 std::vector<std::string> string_list(const Manifest& m, const std::string& path) {
   const json& value = m.at(path);
-  if (!value.is_array()) m.fail(path, "must be an array of strings, found " + describe(value));
+  if (!value.is_array()) m.fail(path, "must be an array of strings, found " + describe_json(value));
   std::vector<std::string> out;
   for (size_t i = 0; i < value.size(); ++i) out.push_back(m.string(value[i], path + "[" + std::to_string(i) + "]"));
   return out;
@@ -461,12 +454,12 @@ void ModelPackage::Impl::parse(const Manifest& m) {
   }
   const json& version = m.at("format_version");
   if (!version.is_number_integer() || version.get<int64_t>() != kPackageFormatVersion) {
-    m.fail("format_version", "is " + describe(version) + ", expected " + std::to_string(kPackageFormatVersion) +
+    m.fail("format_version", "is " + describe_json(version) + ", expected " + std::to_string(kPackageFormatVersion) +
                                  " (this runtime reads format version " + std::to_string(kPackageFormatVersion) +
                                  " only; re-export the package or update the runtime)");
   }
   fps = m.number("fps");
-  if (!(fps > 0.0) || fps > 1000.0) m.fail("fps", "is " + describe(m.at("fps")) + ", expected 0 < fps <= 1000");
+  if (!(fps > 0.0) || fps > 1000.0) m.fail("fps", "is " + describe_json(m.at("fps")) + ", expected 0 < fps <= 1000");
 
   // --- skeleton ---------------------------------------------------------------
   const std::vector<std::string> joints = string_list(m, "skeleton.joints");
@@ -488,7 +481,7 @@ void ModelPackage::Impl::parse(const Manifest& m) {
   for (size_t j = 0; j < joint_count; ++j) {
     const std::string at = "skeleton.rest_offsets[" + std::to_string(j) + "]";
     const json& row = offsets_json[j];
-    if (!row.is_array() || row.size() != 3) m.fail(at, "must be [x, y, z], found " + describe(row));
+    if (!row.is_array() || row.size() != 3) m.fail(at, "must be [x, y, z], found " + describe_json(row));
     offsets.emplace_back(static_cast<float>(m.number(row[0], at + "[0]")),
                          static_cast<float>(m.number(row[1], at + "[1]")),
                          static_cast<float>(m.number(row[2], at + "[2]")));
@@ -577,9 +570,9 @@ void ModelPackage::Impl::parse(const Manifest& m) {
   for (size_t t = 0; t < num_steps; ++t) {
     const std::string at = "diffusion.alphas_cumprod[" + std::to_string(t) + "]";
     const double a = m.number(alphas[t], at);
-    if (!(a > 0.0 && a < 1.0)) m.fail(at, "is " + describe(alphas[t]) + ", expected 0 < value < 1");
+    if (!(a > 0.0 && a < 1.0)) m.fail(at, "is " + describe_json(alphas[t]) + ", expected 0 < value < 1");
     if (t > 0 && a > schedule.alphas_cumprod.back()) {
-      m.fail(at, "is " + describe(alphas[t]) + ", larger than the step before (" + describe(alphas[t - 1]) +
+      m.fail(at, "is " + describe_json(alphas[t]) + ", larger than the step before (" + describe_json(alphas[t - 1]) +
                      "); alphas_cumprod must not increase");
     }
     schedule.alphas_cumprod.push_back(a);
@@ -597,7 +590,7 @@ void ModelPackage::Impl::parse(const Manifest& m) {
   if (m.has("sampling.output_smoothing_frames")) {
     const double sigma = m.number("sampling.output_smoothing_frames");
     if (!(sigma >= 0.0 && sigma <= 10.0)) {
-      m.fail("sampling.output_smoothing_frames", "is " + describe(sigma) + ", expected 0..10 frames");
+      m.fail("sampling.output_smoothing_frames", "is " + describe_json(sigma) + ", expected 0..10 frames");
     }
     defaults.output_smoothing_frames = sigma;
   }
@@ -628,7 +621,7 @@ void ModelPackage::Impl::parse(const Manifest& m) {
   wp.cls_token = m.string("text.special_tokens.cls.token");
   wp.sep_token = m.string("text.special_tokens.sep.token");
   const json& specials = m.at("text.special_tokens");
-  if (!specials.is_object()) m.fail("text.special_tokens", "must be an object, found " + describe(specials));
+  if (!specials.is_object()) m.fail("text.special_tokens", "must be an object, found " + describe_json(specials));
   wp.special_tokens.clear();
   for (auto it = specials.begin(); it != specials.end(); ++it) {
     wp.special_tokens.push_back(m.string("text.special_tokens." + it.key() + ".token"));
@@ -702,7 +695,7 @@ std::unique_ptr<ModelPackage::Impl> ModelPackage::Impl::load(const FileSource& s
   } catch (const json::exception& e) {
     throw Error(manifest_file + ": not valid JSON (" + e.what() + ")");
   }
-  if (!root.is_object()) throw Error(manifest_file + ": expected a JSON object, found " + describe(root));
+  if (!root.is_object()) throw Error(manifest_file + ": expected a JSON object, found " + describe_json(root));
   const Manifest manifest(root, manifest_file);
   impl->parse(manifest);
 

@@ -7,6 +7,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "json_text.hpp"
+
 namespace ardy {
 namespace {
 
@@ -14,19 +16,11 @@ using json = nlohmann::json;
 
 constexpr double kMaxSeconds = 1e7;  // about 116 days
 
-std::string describe(const json& value) {
-  if (value.is_array()) return "an array of " + std::to_string(value.size());
-  if (value.is_object()) return "an object";
-  std::string text = value.dump();
-  if (text.size() > 60) text = text.substr(0, 57) + "...";
-  return text;
-}
-
 // The fields of one JSON object, with errors that name the entry and field.
 class Fields {
  public:
   Fields(const json& object, std::string where, double fps) : object_(object), where_(std::move(where)), fps_(fps) {
-    if (!object_.is_object()) throw Error(where_ + ": must be an object, found " + describe(object_));
+    if (!object_.is_object()) throw Error(where_ + ": must be an object, found " + describe_json(object_));
   }
 
   [[noreturn]] void fail(const std::string& field, const std::string& what) const {
@@ -55,22 +49,22 @@ class Fields {
     return *it;
   }
   double number(const json& value, const std::string& field) const {
-    if (!value.is_number()) fail(field, "must be a number, found " + describe(value));
+    if (!value.is_number()) fail(field, "must be a number, found " + describe_json(value));
     const double v = value.get<double>();
-    if (!std::isfinite(v)) fail(field, "must be finite, found " + describe(value));
+    if (!std::isfinite(v)) fail(field, "must be finite, found " + describe_json(value));
     return v;
   }
   double number(const char* key) const { return number(at(key), key); }
   double number_or(const char* key, double fallback) const { return has(key) ? number(key) : fallback; }
   int64_t integer(const json& value, const std::string& field) const {
-    if (!value.is_number_integer()) fail(field, "must be an integer, found " + describe(value));
+    if (!value.is_number_integer()) fail(field, "must be an integer, found " + describe_json(value));
     if (value.is_number_unsigned() && value.get<uint64_t>() > uint64_t(std::numeric_limits<int64_t>::max())) fail(field, "is too large");
     return value.get<int64_t>();
   }
   bool boolean_or(const char* key, bool fallback) const {
     if (!has(key)) return fallback;
     const json& value = at(key);
-    if (!value.is_boolean()) fail(key, "must be true or false, found " + describe(value));
+    if (!value.is_boolean()) fail(key, "must be true or false, found " + describe_json(value));
     return value.get<bool>();
   }
   // A frame from "<frame_key>" (integer) or "<time_key>" (seconds).
@@ -92,20 +86,20 @@ class Fields {
   }
   std::vector<glm::dvec2> points(const char* key) const {
     const json& list = at(key);
-    if (!list.is_array()) fail(key, "must be an array of [x, z] pairs, found " + describe(list));
+    if (!list.is_array()) fail(key, "must be an array of [x, z] pairs, found " + describe_json(list));
     std::vector<glm::dvec2> out;
     out.reserve(list.size());
     for (size_t i = 0; i < list.size(); ++i) {
       const std::string field = std::string(key) + "[" + std::to_string(i) + "]";
       const json& p = list[i];
-      if (!p.is_array() || p.size() != 2) fail(field, "must be [x, z], found " + describe(p));
+      if (!p.is_array() || p.size() != 2) fail(field, "must be [x, z], found " + describe_json(p));
       out.emplace_back(number(p[0], field + "[0]"), number(p[1], field + "[1]"));
     }
     return out;
   }
   std::vector<double> numbers(const char* key) const {
     const json& list = at(key);
-    if (!list.is_array()) fail(key, "must be an array of numbers, found " + describe(list));
+    if (!list.is_array()) fail(key, "must be an array of numbers, found " + describe_json(list));
     std::vector<double> out;
     out.reserve(list.size());
     for (size_t i = 0; i < list.size(); ++i)
@@ -114,18 +108,18 @@ class Fields {
   }
   glm::dvec3 vec3(const char* key) const {
     const std::vector<double> v = numbers(key);
-    if (v.size() != 3) fail(key, "must be [x, y, z], found " + describe(at(key)));
+    if (v.size() != 3) fail(key, "must be [x, y, z], found " + describe_json(at(key)));
     return glm::dvec3(v[0], v[1], v[2]);
   }
   // 3 rows of 3 (row-major, as numpy writes a matrix) -> GLM (column-major).
   glm::dmat3 mat3(const char* key) const {
     const json& rows = at(key);
-    if (!rows.is_array() || rows.size() != 3) fail(key, "must be 3 rows of 3 numbers, found " + describe(rows));
+    if (!rows.is_array() || rows.size() != 3) fail(key, "must be 3 rows of 3 numbers, found " + describe_json(rows));
     glm::dmat3 m(1.0);
     for (int r = 0; r < 3; ++r) {
       const std::string field = std::string(key) + "[" + std::to_string(r) + "]";
       if (!rows[r].is_array() || rows[r].size() != 3)
-        fail(field, "must be a row of 3 numbers, found " + describe(rows[r]));
+        fail(field, "must be a row of 3 numbers, found " + describe_json(rows[r]));
       for (int c = 0; c < 3; ++c) m[c][r] = number(rows[r][c], field + "[" + std::to_string(c) + "]");
     }
     return m;
@@ -140,7 +134,7 @@ class Fields {
 Constraint parse_constraint(const json& entry, size_t index, const ModelPackage& package, const std::string& source) {
   const double fps = package.fps();
   const std::string base = source + ": constraints[" + std::to_string(index) + "]";
-  if (!entry.is_object()) throw Error(base + ": must be an object, found " + describe(entry));
+  if (!entry.is_object()) throw Error(base + ": must be an object, found " + describe_json(entry));
   const auto type_it = entry.find("type");
   if (type_it == entry.end() || !type_it->is_string()) {
     throw Error(base + ": missing or non-string field 'type' (waypoint, path, clicks, keyframe, joint or contact)");
@@ -236,7 +230,7 @@ Constraint parse_constraint(const json& entry, size_t index, const ModelPackage&
     c.end_frame = f.frame("end_frame", "end_time");
     if (f.has("feet")) {
       const json& feet = f.at("feet");
-      if (!feet.is_array() || feet.empty()) f.fail("feet", "must be a non-empty array, found " + describe(feet));
+      if (!feet.is_array() || feet.empty()) f.fail("feet", "must be a non-empty array, found " + describe_json(feet));
       const std::vector<std::string>& names = package.contact_joints();
       for (size_t i = 0; i < feet.size(); ++i) {
         const std::string field = "feet[" + std::to_string(i) + "]";
@@ -278,7 +272,7 @@ Timeline parse_timeline(const json& document, const ModelPackage& package, const
   Timeline out;
   if (top.has("prompts")) {
     const json& prompts = top.at("prompts");
-    if (!prompts.is_array()) top.fail("prompts", "must be an array, found " + describe(prompts));
+    if (!prompts.is_array()) top.fail("prompts", "must be an array, found " + describe_json(prompts));
     for (size_t i = 0; i < prompts.size(); ++i) {
       const Fields p(prompts[i], source + ": prompts[" + std::to_string(i) + "]", package.fps());
       p.allow({"time", "frame", "text"});
@@ -288,7 +282,7 @@ Timeline parse_timeline(const json& document, const ModelPackage& package, const
         throw Error(p.where() + ": missing field 'text' (a string, or null for no prompt)");
       if (p.has("text")) {
         const json& text = p.at("text");
-        if (!text.is_string()) p.fail("text", "must be a string or null, found " + describe(text));
+        if (!text.is_string()) p.fail("text", "must be a string or null, found " + describe_json(text));
         event.text = text.get<std::string>();
         try {
           package.text_encoder().normalize_prompt(*event.text);
@@ -301,7 +295,7 @@ Timeline parse_timeline(const json& document, const ModelPackage& package, const
   }
   if (top.has("constraints")) {
     const json& constraints = top.at("constraints");
-    if (!constraints.is_array()) top.fail("constraints", "must be an array, found " + describe(constraints));
+    if (!constraints.is_array()) top.fail("constraints", "must be an array, found " + describe_json(constraints));
     for (size_t i = 0; i < constraints.size(); ++i) {
       Constraint c = parse_constraint(constraints[i], i, package, source);
       validate_constraint(c, package.layout(), source + ": constraints[" + std::to_string(i) + "]");
