@@ -27,6 +27,7 @@ from ardy_export.sampling.sampler import (
     ModelBundle,
     WindowRequest,
     _pack_rows,
+    call_denoiser,
     decode_window,
     features_to_motion,
     sample_windows,
@@ -64,7 +65,9 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--repeats", type=int, default=20)
     parser.add_argument("--json", default="")
-    parser.add_argument("--future-tokens", type=int, default=-1, help="-1: the model's maximum")
+    parser.add_argument(
+        "--future-tokens", type=int, default=-1, help="-1: the model's maximum"
+    )
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     bundle = ModelBundle.from_checkpoint(args.checkpoint)
@@ -90,7 +93,9 @@ def main() -> None:
     @torch.no_grad()
     def window(steps: int) -> None:
         (x0,) = sample_windows(bundle.denoiser, bundle.schedule, [request], steps)
-        prev = history[h - k - 1, 5 * (cfg.patch - 1) : 5 * cfg.patch] if h > k else None
+        prev = (
+            history[h - k - 1, 5 * (cfg.patch - 1) : 5 * cfg.patch] if h > k else None
+        )
         body = decode_window(bundle, history[h - k :], x0, prev)
         feats = window_features(x0, body, bundle.mean, bundle.std, (0.0, 0.0))
         features_to_motion(feats, skeleton)
@@ -103,20 +108,7 @@ def main() -> None:
 
     @torch.no_grad()
     def denoiser_call() -> None:
-        bundle.denoiser(
-            x_t,
-            step,
-            packed["text_embedding"],
-            packed["text_keep"],
-            packed["history"],
-            packed["history_mask"],
-            packed["window_goal"],
-            packed["window_goal_mask"],
-            packed["future_goal"],
-            packed["future_goal_mask"],
-            packed["future_mask"],
-            packed["constraint_keep"],
-        )
+        call_denoiser(bundle.denoiser, x_t, step, packed)
 
     result = {
         "torch": torch.__version__,

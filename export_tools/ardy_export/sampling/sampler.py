@@ -105,6 +105,28 @@ class WindowRequest:
     noise: np.ndarray  # [C, D] standard normal
 
 
+# The denoiser's inputs after x_t and step, in its argument order (``_pack_rows`` keys).
+PACKED_INPUTS = (
+    "text_embedding",
+    "text_keep",
+    "history",
+    "history_mask",
+    "window_goal",
+    "window_goal_mask",
+    "future_goal",
+    "future_goal_mask",
+    "future_mask",
+    "constraint_keep",
+)
+
+
+def call_denoiser(
+    denoiser: torch.nn.Module, x_t: Tensor, step: Tensor, packed: dict[str, Tensor]
+) -> Tensor:
+    """One denoiser call on all rows of ``_pack_rows``'s inputs."""
+    return denoiser(x_t, step, *(packed[name] for name in PACKED_INPUTS))
+
+
 def _pack_rows(
     requests: Sequence[WindowRequest], branches: Sequence[Sequence[Branch]], cfg: DenoiserConfig
 ) -> dict[str, Tensor]:
@@ -190,20 +212,7 @@ def sample_windows(
             [xi.unsqueeze(0).expand(len(b), -1, -1) for xi, b in zip(x, branches, strict=True)]
         )
         step = torch.full((x_rows.shape[0],), t, dtype=torch.int64)
-        out = denoiser(
-            x_rows,
-            step,
-            packed["text_embedding"],
-            packed["text_keep"],
-            packed["history"],
-            packed["history_mask"],
-            packed["window_goal"],
-            packed["window_goal_mask"],
-            packed["future_goal"],
-            packed["future_goal_mask"],
-            packed["future_mask"],
-            packed["constraint_keep"],
-        )
+        out = call_denoiser(denoiser, x_rows, step, packed)
         x0_list = []
         start = 0
         for (g_root, v_root), brs in zip(root_goals, branches, strict=True):
