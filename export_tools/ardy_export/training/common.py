@@ -13,7 +13,7 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import torch
@@ -38,6 +38,9 @@ def resolve_path(value: str | Path, config: dict[str, Any]) -> Path:
     the commands are run from it, as the README does)."""
     del config
     return Path(value).expanduser()
+
+
+T = TypeVar("T")
 
 
 @dataclass
@@ -103,6 +106,33 @@ def setup_run(device: str = "auto") -> RunContext:
 def teardown_run(ctx: RunContext) -> None:
     if ctx.distributed and dist.is_initialized():
         dist.destroy_process_group()
+
+
+def run_in_context(
+    train: Callable[[dict[str, Any], TrainSettings, RunContext, bool, bool], T],
+    config: dict[str, Any],
+    resume: bool,
+    progress: bool,
+) -> T:
+    """Runs a trainer's ``train(config, settings, ctx, resume, progress)`` inside its run
+    context (device, DDP), torn down afterwards."""
+    settings = TrainSettings.from_dict(config.get("train", {}))
+    ctx = setup_run(str(config.get("device", "auto")))
+    try:
+        return train(config, settings, ctx, resume, progress)
+    finally:
+        teardown_run(ctx)
+
+
+def begin_run(
+    config: dict[str, Any], settings: TrainSettings, ctx: RunContext, default_run_dir: str
+) -> tuple[int, Path]:
+    """Seeds every generator, sets the CPU threads; returns (seed, run folder)."""
+    seed = int(config.get("seed", 0))
+    seed_everything(seed + ctx.rank)
+    if settings.threads:
+        torch.set_num_threads(settings.threads)
+    return seed, Path(config.get("run_dir", default_run_dir))
 
 
 def seed_everything(seed: int) -> None:

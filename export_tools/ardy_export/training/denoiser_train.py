@@ -27,14 +27,13 @@ from ardy_export.training.common import (
     Prefetcher,
     RunContext,
     TrainSettings,
+    begin_run,
     load_config,
     make_optimizer,
     restore_rng,
     rng_state,
+    run_in_context,
     run_training_steps,
-    seed_everything,
-    setup_run,
-    teardown_run,
     unwrap,
 )
 from ardy_export.training.constraint_sampling import ConstraintSamplingConfig
@@ -101,12 +100,7 @@ def tokenizer_from_checkpoint(path: Path) -> tuple[BodyTokenizer, dict[str, Any]
 def train_denoiser(
     config: dict[str, Any], resume: bool = False, progress: bool = True
 ) -> TrainResult:
-    settings = TrainSettings.from_dict(config.get("train", {}))
-    ctx = setup_run(str(config.get("device", "auto")))
-    try:
-        return _train(config, settings, ctx, resume, progress)
-    finally:
-        teardown_run(ctx)
+    return run_in_context(_train, config, resume, progress)
 
 
 def _train(
@@ -116,11 +110,7 @@ def _train(
     resume: bool,
     progress: bool,
 ) -> TrainResult:
-    seed = int(config.get("seed", 0))
-    seed_everything(seed + ctx.rank)
-    if settings.threads:
-        torch.set_num_threads(settings.threads)
-    run_dir = Path(config.get("run_dir", "runs/denoiser"))
+    seed, run_dir = begin_run(config, settings, ctx, "runs/denoiser")
     latest = run_dir / "latest.pt"
     # init_from: fine-tune a trained denoiser checkpoint (slim or full). Its frozen tokenizer,
     # statistics and latent statistics are kept, so the latents mean what they meant.

@@ -21,14 +21,13 @@ from ardy_export.training.common import (
     Prefetcher,
     RunContext,
     TrainSettings,
+    begin_run,
     load_config,
     make_optimizer,
     restore_rng,
     rng_state,
+    run_in_context,
     run_training_steps,
-    seed_everything,
-    setup_run,
-    teardown_run,
     unwrap,
 )
 from ardy_export.training.losses import LossContext, tokenizer_loss
@@ -73,12 +72,7 @@ def local_root_stats(
 def train_tokenizer(
     config: dict[str, Any], resume: bool = False, progress: bool = True
 ) -> TrainResult:
-    settings = TrainSettings.from_dict(config.get("train", {}))
-    ctx: RunContext = setup_run(str(config.get("device", "auto")))
-    try:
-        return _train(config, settings, ctx, resume, progress)
-    finally:
-        teardown_run(ctx)
+    return run_in_context(_train, config, resume, progress)
 
 
 def _train(
@@ -88,11 +82,7 @@ def _train(
     resume: bool,
     progress: bool,
 ) -> TrainResult:
-    seed = int(config.get("seed", 0))
-    seed_everything(seed + ctx.rank)
-    if settings.threads:
-        torch.set_num_threads(settings.threads)
-    run_dir = Path(config.get("run_dir", "runs/tokenizer"))
+    seed, run_dir = begin_run(config, settings, ctx, "runs/tokenizer")
     latest = run_dir / "latest.pt"
     data_cfg = dict(config.get("data", {}))
     seqs = prepare_sequences(data_cfg, seed)
