@@ -68,7 +68,7 @@ extern "C" {
 #define ARDY_VERSION_MINOR 1
 #define ARDY_VERSION_PATCH 0
 /* Changes whenever a struct layout or a signature of this header changes. */
-#define ARDY_ABI_VERSION 1
+#define ARDY_ABI_VERSION 2
 
 typedef struct ardy_model ardy_model;     /* a loaded model package (immutable) */
 typedef struct ardy_planner ardy_planner; /* one character's streaming planner */
@@ -152,6 +152,9 @@ typedef struct ardy_planner_params {
   double low_water_seconds;       /* append a window when less is queued ahead (default 1) */
   double keep_behind_seconds;     /* frames kept behind the playhead (default 1) */
   bool cancel_obsolete_windows;   /* cancel an appended window a new command would replace (default true) */
+  double output_smoothing_frames; /* output filter sigma in frames; < 0: the package's (default); 0: off */
+  int32_t interpolate_root;       /* sparse root targets become paths: -1 the package's (default), 0 off, 1 on */
+  double max_root_speed;          /* root goals never ask for more (m/s; default 6; 0: no limit) */
 } ardy_planner_params;
 
 ARDY_API ardy_planner_params ardy_planner_default_params(void);

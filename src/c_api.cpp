@@ -328,6 +328,9 @@ ardy_planner_params ardy_planner_default_params(void) {
   p.low_water_seconds = c.low_water_seconds;
   p.keep_behind_seconds = c.keep_behind_seconds;
   p.cancel_obsolete_windows = c.cancel_obsolete_windows;
+  p.output_smoothing_frames = -1.0;
+  p.interpolate_root = -1;
+  p.max_root_speed = c.max_root_speed;
   return p;
 }
 
@@ -353,6 +356,13 @@ ardy_status ardy_planner_create(ardy_model* model, const ardy_planner_params* pa
     c.low_water_seconds = p.low_water_seconds;
     c.keep_behind_seconds = p.keep_behind_seconds;
     c.cancel_obsolete_windows = p.cancel_obsolete_windows;
+    if (!(p.output_smoothing_frames < 0.0)) c.output_smoothing_frames = p.output_smoothing_frames;
+    if (p.interpolate_root < -1 || p.interpolate_root > 1) {
+      invalid("ardy_planner_params: interpolate_root is " + std::to_string(p.interpolate_root) +
+              ", expected -1 (the package's), 0 or 1");
+    }
+    if (p.interpolate_root >= 0) c.interpolate_root = p.interpolate_root == 1;
+    c.max_root_speed = p.max_root_speed;
     auto handle = std::make_unique<ardy_planner>();
     handle->package = model->package;
     handle->planner = std::make_unique<ardy::Planner>(model->package, std::move(c));

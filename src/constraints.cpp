@@ -4,6 +4,8 @@
 #include <cmath>
 #include <sstream>
 
+#include <glm/geometric.hpp>
+
 #include "kinematics.hpp"
 
 namespace ardy {
@@ -123,6 +125,14 @@ std::pair<int64_t, int64_t> constraint_frames(const Constraint& constraint) {
                                },
                                [](const FootContact& c) { return std::make_pair(c.start_frame, c.end_frame - 1); },
                                [](const auto& c) { return std::make_pair(c.frame, c.frame); }},
+                    constraint);
+}
+
+bool constrains_root_position(const Constraint& constraint) {
+  return std::visit(Overloaded{[](const RootWaypoint&) { return true; }, [](const RootPath&) { return true; },
+                               [](const PoseKeyframe& c) { return c.include_root; },
+                               [](const JointTarget& c) { return c.joint == 0 && c.position.has_value(); },
+                               [](const FootContact&) { return false; }},
                     constraint);
 }
 
@@ -523,6 +533,24 @@ class Raster {
     }
   }
 
+  // GoalSpec::max_root_speed: max_step is metres per frame.
+  void limit_root_speed(const glm::dvec2& anchor, double max_step) {
+    const size_t m = layout_.feature_size, px = layout_.root_position.start, pz = px + 2;
+    long long previous = -1;
+    glm::dvec2 from = anchor;
+    for (size_t f = 0; f < count_; ++f) {
+      if (!(mask_[f * m + px] > 0.0 && mask_[f * m + pz] > 0.0)) continue;
+      const glm::dvec2 to{goal_[f * m + px], goal_[f * m + pz]};
+      const double allowed = max_step * static_cast<double>(static_cast<long long>(f) - previous);
+      const double distance = glm::length(to - from);
+      const glm::dvec2 reached = distance > allowed ? from + (to - from) * (allowed / distance) : to;
+      goal_[f * m + px] = reached.x;
+      goal_[f * m + pz] = reached.y;
+      previous = static_cast<long long>(f);
+      from = reached;
+    }
+  }
+
   const std::vector<double>& goal() const { return goal_; }
   const std::vector<double>& mask() const { return mask_; }
 
@@ -593,6 +621,12 @@ void check_spec(const GoalSpec& spec) {
                 std::to_string(spec.layout->feature_size) + " features");
   }
   if (spec.patch == 0 || spec.window_tokens == 0) throw Error("window_goals: patch and window_tokens must be positive");
+  if (!(spec.max_root_speed >= 0.0) || !std::isfinite(spec.max_root_speed)) {
+    throw Error("window_goals: max_root_speed is " + number_text(spec.max_root_speed) + ", expected >= 0 m/s");
+  }
+  if (spec.max_root_speed > 0.0 && !(spec.fps > 0.0 && std::isfinite(spec.fps))) {
+    throw Error("window_goals: max_root_speed needs the fps, found " + number_text(spec.fps));
+  }
 }
 
 template <typename Each>
@@ -608,6 +642,7 @@ WindowGoals window_goals_impl(Each&& each, int64_t window_start, const glm::dvec
     raster.add(c);
   });
   if (spec.interpolate_root) raster.interpolate_root(offset);
+  if (spec.max_root_speed > 0.0) raster.limit_root_speed(offset, spec.max_root_speed / spec.fps);
   return finish_goals(raster, offset, spec);
 }
 

@@ -204,7 +204,23 @@ struct GoalSpec {
   // the first target, then between consecutive targets. The model follows
   // dense root paths far better than isolated targets (docs/evaluation).
   bool interpolate_root = false;
+  // Root speed limit (m/s; 0: none). The root's (x, z) goals are walked in
+  // frame order from offset_xz, and a goal further from the previous one (or
+  // from offset_xz) than this speed allows is pulled back toward it, so no
+  // set of targets asks for a teleport: a waypoint too far for its time is
+  // approached at this speed, and targets that disagree (a waypoint beside a
+  // keyboard path) are joined at this speed. Applied after interpolate_root.
+  double max_root_speed = 0.0;
+  double fps = 0.0;  // frames per second (needed by max_root_speed)
 };
+
+// A speed no clip of the training data reaches (its fastest root moves at
+// 5.1 m/s): the default root speed limit of rollouts and planners.
+constexpr double kDefaultMaxRootSpeed = 6.0;
+
+// Whether a constraint sets the root's ground position (x, z) at some frame:
+// waypoints, paths, keyframes with their root, targets of the root joint's position.
+bool constrains_root_position(const Constraint& constraint);
 
 // constraints.py window_goals: rasterizes the frames [window_start,
 // window_start + (C + future_limit) * P) in float64 (later constraints

@@ -31,6 +31,7 @@ std::vector<float> smooth_features(const FeatureLayout& layout, const float* con
                  : frames + i * static_cast<long long>(m);
   };
   const FeatureSlice contacts = layout.foot_contacts;
+  const auto is_contact = [&](size_t c) { return c >= contacts.start && c < contacts.start + contacts.size; };
   std::vector<double> sum(m);
   for (size_t f = 0; f < count; ++f) {
     std::fill(sum.begin(), sum.end(), 0.0);
@@ -51,10 +52,30 @@ std::vector<float> smooth_features(const FeatureLayout& layout, const float* con
     }
     float* o = out.data() + f * m;
     for (size_t c = 0; c < m; ++c) {
-      if (c >= contacts.start && c < contacts.start + contacts.size) continue;
-      o[c] = static_cast<float>(sum[c] / total);
+      if (!is_contact(c)) o[c] = static_cast<float>(sum[c] / total);
     }
-    float* h = o + layout.heading.start;
+  }
+
+  // The join: the frames shown before were filtered with a guess of what
+  // follows them (point reflection); where the new frames differ from that
+  // guess, the first of them would step. So the first new frame continues
+  // the shown ones (linear extrapolation of the last two) and the
+  // difference fades out over the next 2 radius frames.
+  if (left > 0) {
+    const float* last = row(-1);
+    const float* before = left > 1 ? row(-2) : last;
+    const size_t fade = std::min(2 * radius, count);
+    for (size_t c = 0; c < m; ++c) {
+      if (is_contact(c)) continue;
+      const double gap = 2.0 * last[c] - before[c] - out[c];
+      for (size_t f = 0; f < fade; ++f) {
+        const double weight = fade > 1 ? 1.0 - static_cast<double>(f) / static_cast<double>(fade - 1) : 1.0;
+        out[f * m + c] = static_cast<float>(out[f * m + c] + weight * gap);
+      }
+    }
+  }
+  for (size_t f = 0; f < count; ++f) {
+    float* h = out.data() + f * m + layout.heading.start;
     const float norm = std::hypot(h[0], h[1]);
     if (norm > 1e-6f) {
       h[0] /= norm;

@@ -18,10 +18,17 @@ namespace ardy {
 // 3 sigma frames of `context` (the frames shown just before them,
 // [context_frames, M], left as they are) are read on the left; past the last
 // new frame the motion is continued by point reflection through it (so a
-// straight line stays straight up to the window's end). Every feature but the foot contacts is
-// filtered; the heading's (cos, sin) is renormalized. sigma_frames <= 0 copies.
+// straight line stays straight up to the window's end). With context, the
+// first new frame continues the last two context frames (linear
+// extrapolation) and the difference to the filtered frames fades out over
+// 2 * radius frames, so a window joins the frames shown before it without a
+// step. Every feature but the foot contacts is filtered; the heading's
+// (cos, sin) is renormalized. sigma_frames <= 0 copies.
 std::vector<float> smooth_features(const FeatureLayout& layout, const float* context, size_t context_frames,
                                    const float* frames, size_t count, double sigma_frames);
+
+// The largest sigma accepted where a sigma enters (model.json, planner, CLI).
+constexpr double kMaxSmoothingFrames = 10.0;
 
 // Frames of context smooth_features reads for this sigma (0 when off).
 size_t smoothing_radius(double sigma_frames);

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "io.hpp"
+#include "motion_filter.hpp"
 #include "json_text.hpp"
 
 namespace ardy {
@@ -589,8 +590,9 @@ void ModelPackage::Impl::parse(const Manifest& m) {
   defaults.decode_context_tokens = m.size("sampling.decode_context_tokens", 0);
   if (m.has("sampling.output_smoothing_frames")) {
     const double sigma = m.number("sampling.output_smoothing_frames");
-    if (!(sigma >= 0.0 && sigma <= 10.0)) {
-      m.fail("sampling.output_smoothing_frames", "is " + describe_json(sigma) + ", expected 0..10 frames");
+    if (!(sigma >= 0.0 && sigma <= kMaxSmoothingFrames)) {
+      m.fail("sampling.output_smoothing_frames", "is " + describe_json(sigma) + ", expected 0.." +
+                                                     describe_json(kMaxSmoothingFrames) + " frames");
     }
     defaults.output_smoothing_frames = sigma;
   }

@@ -128,6 +128,10 @@ Planner::Planner(std::shared_ptr<const ModelPackage> package, PlannerConfig conf
     }
   };
   check_seconds("history_seconds", config_.history_seconds, false);
+  if (!std::isfinite(config_.max_root_speed) || config_.max_root_speed < 0.0) {
+    throw Error("Planner config: max_root_speed is " + number_text(config_.max_root_speed) +
+                ", expected a finite number >= 0 (m/s; 0: no limit)");
+  }
   if (config_.future_seconds) check_seconds("future_seconds", *config_.future_seconds, false);
   check_seconds("initial_latency_seconds", config_.initial_latency_seconds, false);
   check_seconds("low_water_seconds", config_.low_water_seconds, false);
@@ -136,6 +140,12 @@ Planner::Planner(std::shared_ptr<const ModelPackage> package, PlannerConfig conf
   if (config_.velocity_path_seconds) check_seconds("velocity_path_seconds", *config_.velocity_path_seconds, true);
   if (!std::isfinite(config_.latency_margin) || config_.latency_margin < 1.0 || config_.latency_margin > 100.0) {
     throw Error("Planner config: latency_margin is " + number_text(config_.latency_margin) + ", expected 1..100");
+  }
+  if (config_.output_smoothing_frames && (!std::isfinite(*config_.output_smoothing_frames) ||
+                                          *config_.output_smoothing_frames < 0.0 ||
+                                          *config_.output_smoothing_frames > kMaxSmoothingFrames)) {
+    throw Error("Planner config: output_smoothing_frames is " + number_text(*config_.output_smoothing_frames) +
+                ", expected 0.." + number_text(kMaxSmoothingFrames) + " (frames; 0 turns the filter off)");
   }
   if (config_.latency_samples == 0) throw Error("Planner config: latency_samples must be at least 1");
   if (config_.min_buffer_frames > 100000) throw Error("Planner config: min_buffer_frames is too large");
@@ -157,8 +167,9 @@ Planner::Planner(std::shared_ptr<const ModelPackage> package, PlannerConfig conf
   if (config_.decode_context_tokens > 0) s.decode_context_tokens = config_.decode_context_tokens;
   s.start_xz = config_.start_xz;
   s.interpolate_root = config_.interpolate_root;
+  s.max_root_speed = config_.max_root_speed;
   s.seed = config_.seed;
-  smoothing_frames_ = config_.output_smoothing_frames;
+  smoothing_frames_ = config_.output_smoothing_frames.value_or(package_->sampling_defaults().output_smoothing_frames);
   rollout_ = with_context("Planner config", [&] { return std::make_unique<Rollout>(package_, s); });
   master_ = std::make_unique<MasterState>();
   master_->settings = s;
@@ -801,7 +812,13 @@ bool Planner::run_window() {
     ConstraintTimeline& timeline = work.constraints();
     timeline.clear();
     for (const auto& entry : m.constraints) timeline.add(entry.second);
-    if (m.velocity) {
+    const int64_t horizon_end = start + static_cast<int64_t>((t.window + work.config().future_tokens) * t.patch);
+    const bool root_targets_ahead =
+        std::any_of(m.constraints.begin(), m.constraints.end(), [&](const auto& entry) {
+          const auto [first, last] = constraint_frames(entry.second);
+          return constrains_root_position(entry.second) && last >= start && first < horizon_end;
+        });
+    if (m.velocity && !root_targets_ahead) {
       const glm::dvec2 position = work.next_offset();
       const glm::dvec2 velocity = work.last_root_velocity().value_or(glm::dvec2(0.0));
       std::optional<double> heading;

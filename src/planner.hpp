@@ -108,11 +108,11 @@ struct PlannerConfig {
   double history_seconds = 8.0;               // history window (clamped to tokens.max_history)
   std::optional<double> future_seconds;       // out-of-window goals (default and limit: tokens.max_future)
   size_t decode_context_tokens = 0;           // 0: the package default
-  // Output filter sigma (motion_filter.hpp), opt-in: off by default until a
-  // known fault is fixed (under ThreadSanitizer, when the playhead waits for a
-  // window, a 0.7 m step appears at a window join with the filter on).
-  double output_smoothing_frames = 0.0;
+  // Output filter sigma in frames (motion_filter.hpp) on the frames shown;
+  // the history the model reads stays raw. Unset: the package's; 0: off.
+  std::optional<double> output_smoothing_frames;
   std::optional<bool> interpolate_root;           // GoalSpec::interpolate_root; default: the package's
+  double max_root_speed = kDefaultMaxRootSpeed;   // GoalSpec::max_root_speed (m/s; 0: no limit)
   glm::dvec2 start_xz{0.0, 0.0};              // where the character starts
   uint64_t seed = 0;                          // noise of the windows
   // Replan buffer and queue.
@@ -124,7 +124,9 @@ struct PlannerConfig {
   double keep_behind_seconds = 1.0;           // frames kept behind the playhead for sample(t < now)
   // Keyboard steering: the velocity blends from the current to the target
   // one over velocity_blend_seconds (default: one window), integrated over
-  // velocity_path_seconds (default: one window) from the window start.
+  // velocity_path_seconds (default: one window) from the window start. Root
+  // targets (waypoints, paths, keyframe roots) that a window can see (within
+  // its future horizon) take precedence: the window ignores the velocity.
   std::optional<double> velocity_blend_seconds;
   std::optional<double> velocity_path_seconds;
   // Cancel an in-flight appended window as soon as a command asks for a

@@ -55,7 +55,13 @@ RolloutConfig Rollout::resolve(const RolloutSettings& s) const {
   }
   c.start_xz = s.start_xz;
   c.root_overwrite = s.root_overwrite;
+  c.root_continuity = s.root_continuity;
   c.interpolate_root = s.interpolate_root.value_or(d.interpolate_root);
+  if (!std::isfinite(s.max_root_speed) || s.max_root_speed < 0.0) {
+    throw Error("rollout settings: max_root_speed is " + std::to_string(s.max_root_speed) +
+                ", expected >= 0 m/s (0: no limit)");
+  }
+  c.max_root_speed = s.max_root_speed;
   c.seed = s.seed;
   return c;
 }
@@ -218,11 +224,14 @@ WindowInput Rollout::prepare_window() const {
   spec.window_tokens = t.window;
   spec.future_limit_tokens = config_.future_tokens;
   spec.interpolate_root = config_.interpolate_root;
+  spec.max_root_speed = config_.max_root_speed;
+  spec.fps = p.fps();
   in.goals = window_goals(constraints_, in.start_frame, in.offset, spec);
   in.steps = config_.steps;
   in.w_text = config_.w_text;
   in.w_con = config_.w_con;
   in.root_overwrite = config_.root_overwrite;
+  in.root_continuity = config_.root_continuity;
   in.decode_context_tokens = config_.decode_context_tokens;
   return in;
 }

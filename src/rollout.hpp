@@ -55,7 +55,9 @@ struct RolloutSettings {
   std::optional<size_t> commit_tokens;  // 1..window; default: the whole window
   glm::dvec2 start_xz{0.0, 0.0};        // model origin before any history
   bool root_overwrite = true;
+  bool root_continuity = true;           // WindowInput::root_continuity
   std::optional<bool> interpolate_root;  // GoalSpec::interpolate_root; default: the package's
+  double max_root_speed = kDefaultMaxRootSpeed;  // GoalSpec::max_root_speed (m/s; 0: no limit)
   uint64_t seed = 0;
 };
 
@@ -70,7 +72,9 @@ struct RolloutConfig {
   size_t commit_tokens = 0;
   glm::dvec2 start_xz{0.0, 0.0};
   bool root_overwrite = true;
+  bool root_continuity = true;
   bool interpolate_root = false;
+  double max_root_speed = 0.0;
   uint64_t seed = 0;
 };
 

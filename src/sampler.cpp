@@ -175,6 +175,63 @@ std::vector<float> NoiseGenerator::normal(size_t count) {
 
 // --- DDIM -----------------------------------------------------------------------------------
 
+namespace {
+
+// The in-window root overwrite of x0 [C, D] (sampler.py), and
+// WindowInput::root_continuity when `continuous`.
+void overwrite_root(const WindowInput& in, const FeatureLayout& layout, const TokenSizes& t, std::vector<float>& x0,
+                    bool continuous) {
+  const size_t d = t.token_dim, patch = t.patch, m = layout.feature_size, rs = layout.root_size();
+  const size_t root_start = layout.root().start, frames = t.window * patch;
+  const size_t position_begin = layout.root_position.start - root_start;
+  const size_t position_end = position_begin + layout.root_position.size;
+  // Root entry q of frame f: token entry (f / P) * D + (f % P) * rs + q; its
+  // goal: entry (f / P) * P * M + (f % P) * M + root_start + q.
+  const auto value_at = [&](size_t f, size_t q) -> float& { return x0[(f / patch) * d + (f % patch) * rs + q]; };
+  const auto goal_index = [&](size_t f, size_t q) { return f * m + root_start + q; };
+  for (size_t q = 0; q < rs; ++q) {
+    if (!continuous || q < position_begin || q >= position_end) {
+      for (size_t f = 0; f < frames; ++f) {
+        const float v = in.goals.window_goal_mask[goal_index(f, q)];
+        const float goal = in.goals.window_goal[goal_index(f, q)];
+        float& value = value_at(f, q);
+        const float kept = (1.0f - v) * value;
+        const float set = v * goal;
+        value = kept + set;
+      }
+      continue;
+    }
+    // Displacements: v * (goal - x0) at constrained frames, 0 before the
+    // window, linear in between, held after the last constrained frame.
+    long long known = -1;
+    float known_shift = 0.0f;
+    size_t f = 0;
+    while (f < frames) {
+      size_t next = f;
+      while (next < frames && !(in.goals.window_goal_mask[goal_index(next, q)] > 0.0f)) ++next;
+      const bool found = next < frames;
+      float next_shift = known_shift;
+      if (found) {
+        const float v = in.goals.window_goal_mask[goal_index(next, q)];
+        next_shift = v * (in.goals.window_goal[goal_index(next, q)] - value_at(next, q));
+      }
+      for (size_t g = f; g < next; ++g) {
+        const float a = found ? static_cast<float>(static_cast<long long>(g) - known) /
+                                    static_cast<float>(static_cast<long long>(next) - known)
+                              : 1.0f;
+        value_at(g, q) += known_shift + a * (next_shift - known_shift);
+      }
+      if (!found) break;
+      value_at(next, q) += next_shift;
+      known = static_cast<long long>(next);
+      known_shift = next_shift;
+      f = next + 1;
+    }
+  }
+}
+
+}  // namespace
+
 std::vector<std::vector<float>> sample_windows(const ModelPackage& package,
                                                const std::vector<const WindowInput*>& windows,
                                                const std::vector<const std::vector<float>*>& noises,
@@ -196,7 +253,6 @@ std::vector<std::vector<float>> sample_windows(const ModelPackage& package,
   const TokenSizes& t = package.tokens();
   const FeatureLayout& layout = package.layout();
   const size_t c = t.window, d = t.token_dim, pm = t.goal_dim, e = package.text_embedding_size();
-  const size_t m = layout.feature_size, patch = t.patch, rs = layout.root_size(), root_start = layout.root().start;
   const size_t cd = c * d;
 
   std::vector<std::vector<GuidanceRow>> rows_of;
@@ -300,20 +356,8 @@ std::vector<std::vector<float>> sample_windows(const ModelPackage& package,
       }
       r += brs.size();
       if (in.root_overwrite) {
-        // Root entries p * rs + q of token k <- goal entries p * M + root_start + q.
-        for (size_t k = 0; k < c; ++k) {
-          for (size_t p = 0; p < patch; ++p) {
-            for (size_t q = 0; q < rs; ++q) {
-              const size_t g = k * pm + p * m + root_start + q;
-              const float v = in.goals.window_goal_mask[g];
-              const float goal = in.goals.window_goal[g];
-              float& value = result[k * d + p * rs + q];
-              const float kept = (1.0f - v) * value;
-              const float set = v * goal;
-              value = kept + set;
-            }
-          }
-        }
+        const bool last_step = i + 1 == timesteps.size();
+        overwrite_root(in, layout, t, result, in.root_continuity && last_step);
       }
     }
     if (i + 1 < timesteps.size()) {

@@ -105,6 +105,14 @@ struct WindowInput {
   float w_text = 2.0f;
   float w_con = 2.0f;
   bool root_overwrite = true;
+  // With root_overwrite, after the last step: the root position entries the
+  // goals leave free are moved too, by the overwrite's displacement
+  // interpolated between constrained frames (0 at the frame before the
+  // window, held after the last constrained frame). Where the model's own
+  // root disagrees with the goals (it follows isolated targets poorly), the
+  // root then has no step at the end of an overwritten stretch. Off in the
+  // reference sampler (sampler.py), so the goldens' windows keep it off.
+  bool root_continuity = false;
   size_t decode_context_tokens = 4;
 };
 

@@ -164,7 +164,7 @@ Arguments parse_arguments(int argc, char** argv) {
   if (values.count("--w-con")) a.w_con = static_cast<float>(number("--w-con", -100.0, 100.0));
   if (values.count("--commit-tokens")) a.commit_tokens = static_cast<size_t>(integer("--commit-tokens", 1, 100000));
   if (values.count("--history-seconds")) a.history_seconds = number("--history-seconds", 0.0, 3600.0);
-  if (values.count("--smoothing")) a.smoothing = number("--smoothing", 0.0, 10.0);
+  if (values.count("--smoothing")) a.smoothing = number("--smoothing", 0.0, ardy::kMaxSmoothingFrames);
   if (values.count("--interpolate-root")) {
     const std::string v = need("--interpolate-root");
     if (v != "on" && v != "off") throw UsageError{"--interpolate-root must be on or off, got '" + v + "'"};
@@ -341,7 +341,7 @@ int run(const Arguments& args) {
 
   const auto wanted = static_cast<size_t>(std::max<long long>(1, std::llround(args.seconds * package->fps())));
   const ardy::FeatureLayout& layout = package->layout();
-  const size_t m = layout.feature_size, j = package->skeleton().joint_count();
+  const size_t j = package->skeleton().joint_count();
   const double sigma = args.smoothing.value_or(package->sampling_defaults().output_smoothing_frames);
   Generated g;
   g.motion.joint_count = j;

@@ -166,6 +166,20 @@ static void test_planner(ardy_model* model) {
   CHECK_CONTAINS(ardy_last_error(), "history_seconds");
   CHECK_STATUS(ardy_planner_create(NULL, NULL, &planner), ARDY_ERROR_INVALID_ARGUMENT);
   CHECK_CONTAINS(ardy_last_error(), "model is NULL");
+  params = ardy_planner_default_params();
+  CHECK(params.output_smoothing_frames < 0.0 && params.interpolate_root == -1 && params.max_root_speed == 6.0);
+  params.output_smoothing_frames = 50.0;
+  CHECK_STATUS(ardy_planner_create(model, &params, &planner), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_last_error(), "output_smoothing_frames is 50");
+  params = ardy_planner_default_params();
+  params.interpolate_root = 2;
+  CHECK_STATUS(ardy_planner_create(model, &params, &planner), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_last_error(), "interpolate_root is 2");
+  params = ardy_planner_default_params();
+  params.max_root_speed = -1.0;
+  CHECK_STATUS(ardy_planner_create(model, &params, &planner), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_last_error(), "max_root_speed is -1");
+  CHECK(planner == NULL);
 
   params = ardy_planner_default_params();
   params.start_x = 1.0;

@@ -337,6 +337,40 @@ TEST_CASE("window goals: interpolate_root turns sparse root targets into a path 
   CHECK(count_mask(sparse.window_goal_mask) == 2 + 2 + 2 + 2);
 }
 
+TEST_CASE("window goals: max_root_speed pulls root targets back so nothing asks for a teleport",
+          "[constraints][goals]") {
+  const ardy::Normalization norm = unit_stats();
+  ardy::GoalSpec s = spec(norm);
+  s.fps = 20.0;
+  s.max_root_speed = 6.0;  // 0.3 m per frame
+  std::vector<Constraint> constraints;
+  constraints.push_back(RootWaypoint{49, 11.0, 2.0, std::nullopt});  // 10 m in 10 frames: 3 m reachable
+  constraints.push_back(RootPath{50, {{4.0, 6.0}, {4.0, 6.1}}, {}});  // 4 m beside the pulled-back waypoint
+  const glm::dvec2 anchor{1.0, 2.0};
+  const WindowGoals g = ardy::window_goals(constraints, 40, anchor, s);
+  CHECK_THAT(goal_at(g, 9, 0), WithinAbs(3.0, 1e-6));
+  CHECK_THAT(goal_at(g, 9, 2), WithinAbs(0.0, 1e-6));
+  CHECK_THAT(goal_at(g, 10, 0), WithinAbs(3.0, 1e-6));  // joined at the limit, not 4 m in one frame
+  CHECK_THAT(goal_at(g, 10, 2), WithinAbs(0.3, 1e-6));
+  CHECK_THAT(goal_at(g, 11, 2), WithinAbs(0.6, 1e-6));
+  CHECK(count_mask(g.window_goal_mask) == 3 * 2);
+  // With interpolation the path to the waypoint is limited the same way.
+  s.interpolate_root = true;
+  const WindowGoals path = ardy::window_goals(constraints, 40, anchor, s);
+  for (size_t f = 0; f <= 9; ++f) CHECK_THAT(goal_at(path, f, 0), WithinAbs(0.3 * double(f + 1), 1e-6));
+  // No limit: the targets as given.
+  const WindowGoals free = ardy::window_goals(constraints, 40, anchor, spec(norm));
+  CHECK_THAT(goal_at(free, 9, 0), WithinAbs(10.0, 1e-6));
+  // The limit needs the frame rate and a sane value.
+  ardy::GoalSpec no_fps = spec(norm);
+  no_fps.max_root_speed = 6.0;
+  CHECK_THAT(error_message([&] { ardy::window_goals(constraints, 40, anchor, no_fps); }),
+             ContainsSubstring("max_root_speed needs the fps"));
+  s.max_root_speed = -1.0;
+  CHECK_THAT(error_message([&] { ardy::window_goals(constraints, 40, anchor, s); }),
+             ContainsSubstring("max_root_speed is -1"));
+}
+
 TEST_CASE("window goals: keyframes, root joint targets and rotations", "[constraints][goals]") {
   const ardy::Normalization norm = unit_stats();
   PoseKeyframe key;

@@ -36,6 +36,7 @@ using ardy::WindowOutcome;
 using ardy::WindowRecord;
 using ardy::WindowResult;
 using ardy_test::error_message;
+using ardy_test::shipped_package;
 using ardy_test::tiny_package;
 using Catch::Matchers::ContainsSubstring;
 
@@ -266,6 +267,7 @@ class PlaybackRecorder {
   struct Jumps {
     double across = 0.0;
     double within = 0.0;
+    double root = 0.0;  // largest root (x, z) step anywhere
     int splices = 0;
   };
   Jumps jumps() const {
@@ -274,6 +276,8 @@ class PlaybackRecorder {
       const auto next = std::next(it);
       if (next == played_.end() || next->first != it->first + 1) continue;
       double m = glm::length(next->second.root - it->second.root);
+      const glm::vec3 ground = next->second.root - it->second.root;
+      j.root = std::max(j.root, double(std::hypot(ground.x, ground.z)));
       for (size_t k = 0; k < it->second.positions.size(); ++k) {
         m = std::max(m, double(glm::length(next->second.positions[k] - it->second.positions[k])));
       }
@@ -476,14 +480,31 @@ TEST_CASE("a window that comes back after the playhead reached its splice is thr
 }
 
 TEST_CASE("a slow model still yields a continuous frame stream across replans", "[planner][threads]") {
-  const auto kind = GENERATE(ModelDouble::Kind::smooth, ModelDouble::Kind::real);
-  ModelDouble model(kind);
-  model.delay_ms = kind == ModelDouble::Kind::smooth ? 20 : 2;  // per model call
+  // Each model with the output filter on and off. The shipped (trained) model
+  // also runs the constraint path end to end (root interpolation, the speed
+  // limit, root continuity): a waypoint it must sprint to when windows come
+  // late, then keyboard steering.
+  struct Case {
+    const char* name;
+    ModelDouble::Kind kind;
+    bool shipped;
+    std::optional<double> smoothing;  // unset: the package's
+    int delay_ms;                     // per model call
+  };
+  const Case c = GENERATE(Case{"smooth double, unfiltered", ModelDouble::Kind::smooth, false, 0.0, 20},
+                          Case{"smooth double, filtered", ModelDouble::Kind::smooth, false, 1.5, 20},
+                          Case{"random weights, unfiltered", ModelDouble::Kind::real, false, 0.0, 2},
+                          Case{"random weights, filtered", ModelDouble::Kind::real, false, 1.5, 2},
+                          Case{"shipped model, its filter", ModelDouble::Kind::real, true, std::nullopt, 0},
+                          Case{"shipped model, unfiltered", ModelDouble::Kind::real, true, 0.0, 0});
+  ModelDouble model(c.kind);
+  model.delay_ms = c.delay_ms;
   // The planner measures latency on the game's clock, which the caller's loop advances.
   std::atomic<double> game_time{0.0};
   PlannerConfig config = model.config();
   config.clock = [&] { return game_time.load(); };
-  Planner planner(tiny_package(), config);
+  config.output_smoothing_frames = c.smoothing;
+  Planner planner(c.shipped ? shipped_package() : tiny_package(), config);
   REQUIRE(planner.wait_idle());
   planner.set_prompt("a person walks");
   planner.set_prompt_at(4.5, "a person runs");
@@ -519,8 +540,9 @@ TEST_CASE("a slow model still yields a continuous frame stream across replans", 
   CHECK(recorder.changed() == 0);
   const auto jumps = recorder.jumps();
   const auto stats = planner.stats();
-  std::cout << "continuity (" << (kind == ModelDouble::Kind::smooth ? "smooth" : "real") << " model): largest step across "
-            << jumps.splices << " window joins " << jumps.across << " m, within windows " << jumps.within << " m; "
+  std::cout << "continuity (" << c.name << "): largest step across "
+            << jumps.splices << " window joins " << jumps.across << " m, within windows " << jumps.within
+            << " m, root " << jumps.root << " m; "
             << stats.windows_published << " windows, " << stats.splices << " splices, " << stats.late_windows
             << " late, " << stats.cancelled_windows << " cancelled, B " << stats.buffer_frames << " frames, latency "
             << stats.latency_estimate_seconds << " s, underrun " << stats.underrun_seconds << " s\n";
@@ -528,6 +550,11 @@ TEST_CASE("a slow model still yields a continuous frame stream across replans", 
   CHECK(jumps.splices >= 3);
   CHECK(jumps.within > 0.0);
   CHECK(jumps.across <= 1.5 * jumps.within);
+  if (c.shipped) {
+    // The root never teleports: root goals are limited to 6 m/s (0.3 m a
+    // frame), and the model's free frames follow on from the overwritten ones.
+    CHECK(jumps.root <= 0.45);
+  }
   CHECK(stats.windows_published >= 4);
   CHECK(stats.commands == 5);
   // The prompt change reached the windows.
@@ -753,6 +780,26 @@ TEST_CASE("constraints and keyboard velocity become the windows' goals", "[plann
   planner.add_waypoint(100.0, 5.0, 5.0);
   REQUIRE(planner.wait_idle());
   CHECK(model.inputs().size() == windows);
+  CHECK(planner.take_errors().empty());
+
+  // Root targets a window can see take precedence over the keyboard velocity
+  // (two root goals that disagree would pull the root apart).
+  const auto root_x_goals = [&](const WindowInput& w) {
+    size_t n = 0;
+    for (const auto* mask : {&w.goals.window_goal_mask, &w.goals.future_goal_mask}) {
+      for (size_t i = p.layout().root_position.start; i < mask->size(); i += m) n += (*mask)[i] != 0.0f;
+    }
+    return n;
+  };
+  planner.set_target_velocity(1.0, 0.0);
+  REQUIRE(planner.wait_idle());
+  CHECK(root_x_goals(model.inputs().back()) > 10);  // the velocity path
+  const auto near = planner.add_waypoint(planner.time() + 2.0, 2.0, 1.0);
+  REQUIRE(planner.wait_idle());
+  CHECK(root_x_goals(model.inputs().back()) == 1);  // the waypoint alone
+  planner.remove_constraint(near);
+  REQUIRE(planner.wait_idle());
+  CHECK(root_x_goals(model.inputs().back()) > 10);
   CHECK(planner.take_errors().empty());
 }
 

@@ -54,6 +54,8 @@ RolloutSettings golden_settings() {
   s.commit_tokens = cfg.at("commit_tokens").get<size_t>();
   s.start_xz = glm::dvec2(cfg.at("start_xz")[0].get<double>(), cfg.at("start_xz")[1].get<double>());
   s.root_overwrite = cfg.at("root_overwrite").get<bool>();
+  s.max_root_speed = 0.0;     // the reference's goals are the constraints as given
+  s.root_continuity = false;  // and its overwrite the plain one
   return s;
 }
 
@@ -350,6 +352,50 @@ TEST_CASE("several windows in one denoiser call give each window's own result", 
   other_steps.steps = 2;
   CHECK_THAT(error_message([&] { ardy::generate_windows(*package, {&in_a, &other_steps}, {&noise_a, &noise_b}); }),
              ContainsSubstring("shares its steps"));
+}
+
+TEST_CASE("root_continuity moves the free root positions with the overwrite, so the root has no step",
+          "[sampler]") {
+  const auto package = tiny_package();
+  const auto& t = package->tokens();
+  const ardy::FeatureLayout& layout = package->layout();
+  RolloutSettings settings;
+  settings.interpolate_root = false;  // one constrained frame: the overwrite alone would make a spike
+  Rollout rollout(package, settings);
+  const int64_t k = 13;  // the waypoint's frame in the window
+  rollout.constraints().add(ardy::RootWaypoint{k, 2.5, -1.0, std::nullopt});
+  WindowInput in = rollout.prepare_window();
+  const std::vector<float> noise = golden_noise(0);
+  in.root_continuity = false;
+  const WindowResult plain = ardy::generate_window(*package, in, noise);
+  in.root_continuity = true;
+  const WindowResult continuous = ardy::generate_window(*package, in, noise);
+  // Only the last step differs: x0 is the same prediction, plus a displacement
+  // on the free root positions that is 0 before the window, reaches the
+  // overwrite at frame k and then stays.
+  const size_t rs = layout.root_size(), d = t.token_dim, frames = t.window * t.patch;
+  const auto entry = [&](const WindowResult& r, size_t f, size_t q) {
+    return r.tokens[(f / t.patch) * d + (f % t.patch) * rs + q];
+  };
+  for (size_t q : {size_t{0}, size_t{2}}) {
+    INFO("root entry " << q);
+    CHECK_THAT(entry(continuous, k, q) - entry(plain, k, q), Catch::Matchers::WithinAbs(0.0, 1e-6));  // the goal
+    const float plain_k_neighbour = entry(plain, k + 1, q);
+    const float shift_after = entry(continuous, k + 1, q) - plain_k_neighbour;
+    CHECK(std::abs(shift_after) > 1e-3f);  // the random model does not reach the waypoint by itself
+    for (size_t f = k + 1; f < frames; ++f) {
+      CHECK_THAT(entry(continuous, f, q) - entry(plain, f, q), Catch::Matchers::WithinAbs(shift_after, 1e-4));
+    }
+    for (size_t f = 0; f < static_cast<size_t>(k); ++f) {
+      const float ramp = shift_after * static_cast<float>(f + 1) / static_cast<float>(k + 1);
+      CHECK_THAT(entry(continuous, f, q) - entry(plain, f, q), Catch::Matchers::WithinAbs(ramp, 1e-4));
+    }
+  }
+  // Heading and height are not constrained here and stay as predicted.
+  for (size_t f = 0; f < frames; ++f) {
+    CHECK(entry(continuous, f, 1) == entry(plain, f, 1));
+    CHECK(entry(continuous, f, 3) == entry(plain, f, 3));
+  }
 }
 
 // --- seeding, snapshots, settings -------------------------------------------------------------------

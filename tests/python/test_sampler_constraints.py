@@ -68,6 +68,21 @@ def test_interpolate_turns_sparse_root_targets_into_a_path_from_the_character() 
     assert sparse.window_goal_mask.sum() == 2 + 2 + 2 + 2
 
 
+def test_root_targets_are_pulled_back_to_the_speed_limit() -> None:
+    # The same case as test_constraints.cpp's: 0.3 m per frame from the anchor (1, 2).
+    zero, one = np.zeros(M, np.float32), np.ones(M, np.float32)
+    targets = [
+        RootWaypoint(49, 11.0, 2.0),  # 10 m in 10 frames: only 3 m reachable
+        RootPath(50, [(4.0, 6.0), (4.0, 6.1)]),  # 4 m beside the pulled-back waypoint
+    ]
+    g = window_goals(targets, 40, (1.0, 2.0), zero, one, C, 4, max_root_step=0.3)
+    assert np.isclose(_at(g.window_goal, 9, 0), 3.0) and np.isclose(_at(g.window_goal, 9, 2), 0.0)
+    assert np.isclose(_at(g.window_goal, 10, 0), 3.0) and np.isclose(_at(g.window_goal, 10, 2), 0.3)
+    assert np.isclose(_at(g.window_goal, 11, 0), 3.0) and np.isclose(_at(g.window_goal, 11, 2), 0.6)
+    free = window_goals(targets, 40, (1.0, 2.0), zero, one, C, 4)
+    assert np.isclose(_at(free.window_goal, 9, 0), 10.0)
+
+
 def test_future_goals_are_cut_after_the_last_constrained_token() -> None:
     start = 40
     wp = RootWaypoint(frame=start + C * P + 2 * P + 1, x=1.0, z=1.0)  # future token 2

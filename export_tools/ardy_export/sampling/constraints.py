@@ -215,6 +215,23 @@ def interpolate_root(goal: np.ndarray, mask: np.ndarray, anchor_xz: Sequence[flo
         previous, start = int(f), target
 
 
+def limit_root_speed(
+    goal: np.ndarray, mask: np.ndarray, anchor_xz: Sequence[float], max_step: float
+) -> None:
+    """Pulls root (x, z) targets that would need more than ``max_step`` metres per frame
+    (from the previous target, or ``anchor_xz`` before the first) back toward the previous
+    one, in place (src/constraints.hpp GoalSpec::max_root_speed)."""
+    previous, start = -1, np.asarray(anchor_xz, dtype=np.float64)
+    for f in np.flatnonzero((mask[:, 0] > 0.0) & (mask[:, 2] > 0.0)):
+        target = goal[f, [0, 2]].copy()
+        allowed = max_step * (f - previous)
+        distance = float(np.linalg.norm(target - start))
+        if distance > allowed:
+            target = start + (target - start) * (allowed / distance)
+        goal[f, [0, 2]] = target
+        previous, start = int(f), target
+
+
 def window_goals(
     constraints: Sequence[Constraint],
     window_start: int,
@@ -225,14 +242,18 @@ def window_goals(
     future_limit_tokens: int,
     patch: int = L.PATCH,
     interpolate: bool = False,
+    max_root_step: float = 0.0,
 ) -> WindowGoals:
     """Convert world-space constraints into one window's goal tensors (module docstring);
-    ``interpolate`` first turns sparse root targets into a path (``interpolate_root``)."""
+    ``interpolate`` first turns sparse root targets into a path (``interpolate_root``), then
+    ``max_root_step`` (metres per frame; 0: none) limits the root's speed (``limit_root_speed``)."""
     tokens = window_tokens + future_limit_tokens
     frames = tokens * patch
     goal, mask = rasterize(constraints, window_start, frames)
     if interpolate:
         interpolate_root(goal, mask, offset_xz)
+    if max_root_step > 0.0:
+        limit_root_speed(goal, mask, offset_xz, max_root_step)
     goal[:, 0] -= offset_xz[0]
     goal[:, 2] -= offset_xz[1]
     norm = (goal - np.asarray(mean, dtype=np.float64)) / np.asarray(std, dtype=np.float64)

@@ -133,6 +133,17 @@ inline void check_parity(const std::string& what, const std::vector<float>& expe
   CHECK(c.max_error <= tolerance * c.scale);
 }
 
+// The shipped default model (demo_project/addons/ardy/models/default), loaded
+// once per test executable: for checks that need a trained model's motion.
+inline std::shared_ptr<const ardy::ModelPackage> shipped_package() {
+  static const std::shared_ptr<const ardy::ModelPackage> package = [] {
+    ardy::PackageOptions options;
+    options.session.intra_op_threads = 1;
+    return std::make_shared<const ardy::ModelPackage>(ardy::ModelPackage::from_folder(ARDY_SHIPPED_MODEL_DIR, options));
+  }();
+  return package;
+}
+
 // The tiny package, loaded once per test executable.
 inline std::shared_ptr<const ardy::ModelPackage> tiny_package() {
   static const std::shared_ptr<const ardy::ModelPackage> package = [] {
