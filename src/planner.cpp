@@ -149,10 +149,12 @@ Planner::Planner(std::shared_ptr<const ModelPackage> package, PlannerConfig conf
   }
   if (config_.latency_samples == 0) throw Error("Planner config: latency_samples must be at least 1");
   if (config_.min_buffer_frames > 100000) throw Error("Planner config: min_buffer_frames is too large");
-  if (!config_.generator) config_.generator = [](const ModelPackage& pkg, const WindowInput& in,
-                                                 const std::vector<float>& noise, const CancelCheck& cancel) {
-    return generate_window(pkg, in, noise, cancel);
-  };
+  if (!config_.generator) {
+    config_.generator = [](const std::shared_ptr<const ModelPackage>& pkg, const WindowInput& in,
+                           const std::vector<float>& noise, const CancelCheck& cancel) {
+      return generate_window(*pkg, in, noise, cancel);
+    };
+  }
   if (!config_.clock) config_.clock = steady_seconds;
 
   RolloutSettings s;
@@ -843,7 +845,7 @@ bool Planner::run_window() {
       }
       return false;
     };
-    auto result = std::make_shared<WindowResult>(config_.generator(p, in, noise, cancel));
+    auto result = std::make_shared<WindowResult>(config_.generator(package_, in, noise, cancel));
     const double latency = std::max(0.0, now() - t0);
     rec.latency_seconds = latency;
     latencies_.push_back(latency);

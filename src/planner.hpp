@@ -93,10 +93,6 @@ struct Pose {
   uint64_t window_id = 0;                  // the window of the earlier of the two frames
 };
 
-// Generates one window: the real one is generate_window(). Tests and tools
-// wrap it (artificial delay, call counting, fault injection).
-using WindowGenerator = std::function<WindowResult(const ModelPackage&, const WindowInput&,
-                                                   const std::vector<float>& noise, const CancelCheck&)>;
 // Seconds, monotonic; measures window latency. Default: std::chrono::steady_clock.
 using PlannerClock = std::function<double()>;
 

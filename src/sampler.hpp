@@ -17,6 +17,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -179,5 +180,11 @@ WindowResult generate_window(const ModelPackage& package, const WindowInput& win
 std::vector<WindowResult> generate_windows(const ModelPackage& package, const std::vector<const WindowInput*>& windows,
                                            const std::vector<const std::vector<float>*>& noises,
                                            const CancelCheck& cancel = {});
+
+// Generates one window: the real one is generate_window(). A planner takes
+// one (PlannerConfig::generator); WindowBatcher makes one that batches
+// several planners' windows; tests wrap it (delay, call counting, faults).
+using WindowGenerator = std::function<WindowResult(const std::shared_ptr<const ModelPackage>&, const WindowInput&,
+                                                   const std::vector<float>& noise, const CancelCheck&)>;
 
 }  // namespace ardy

@@ -134,8 +134,9 @@ class ModelDouble {
 
   PlannerConfig config() {
     PlannerConfig c;
-    c.generator = [this](const ardy::ModelPackage& p, const WindowInput& in, const std::vector<float>& noise,
-                         const ardy::CancelCheck& cancel) { return generate(p, in, noise, cancel); };
+    c.generator = [this](const std::shared_ptr<const ardy::ModelPackage>& p, const WindowInput& in,
+                         const std::vector<float>& noise,
+                         const ardy::CancelCheck& cancel) { return generate(*p, in, noise, cancel); };
     return c;
   }
   PlannerConfig fake_clock_config() {
