@@ -3,6 +3,8 @@
 //   - one window (DDIM with every guidance row, decoding, features, FK) at 4
 //     and 10 steps, with a full history and a dense path constraint (three
 //     guidance rows), p50 and p99; and the preparation of a window;
+//   - batches of 2, 4 and 8 such windows (several characters) in one call,
+//     per window;
 //   - one denoiser call with those rows, one decoder call;
 //   - text encoding, cold (cache cleared) and cached;
 //   - the planner's cost on the caller's thread: advance(), sample_current(),
@@ -182,6 +184,23 @@ void time_windows(ardy::Rollout& rollout, size_t steps, int future_tokens, int r
   }
 }
 
+// Times one batch of `count` windows (copies of one window, the characters of
+// a scene) in one generate_windows call: DDIM with every row of every window
+// in one denoiser call per step, one decoder call per window.
+std::vector<double> time_batch(ardy::Rollout& rollout, size_t count, int repeats) {
+  const ardy::WindowInput in = rollout.prepare_window();
+  const std::vector<float> noise = rollout.draw_noise();
+  const std::vector<const ardy::WindowInput*> inputs(count, &in);
+  const std::vector<const std::vector<float>*> noises(count, &noise);
+  std::vector<double> ms;
+  for (int i = -1; i < repeats; ++i) {
+    const auto t0 = Clock::now();
+    ardy::generate_windows(rollout.package(), inputs, noises);
+    if (i >= 0) ms.push_back(seconds_since(t0) * 1e3);
+  }
+  return ms;
+}
+
 // The denoiser inputs of a window's three rows (D0, D_text, D_con; contract section 2).
 std::vector<std::pair<std::string, ardy::Tensor>> denoiser_inputs(const ardy::ModelPackage& p,
                                                                   const ardy::WindowInput& in) {
@@ -255,6 +274,10 @@ int main(int argc, char** argv) {
     size_t rows = 0;
     time_windows(rollout, 4, args.future_tokens, args.repeats, w4, prep4, rows);
     time_windows(rollout, 10, args.future_tokens, std::max(3, args.repeats / 2), w10, prep10, rows);
+    rollout.configure(bench_settings(4, args.future_tokens));
+    const std::vector<size_t> batch_sizes{1, 2, 4, 8};
+    std::vector<Summary> batches;
+    for (size_t n : batch_sizes) batches.push_back(summarize(time_batch(rollout, n, std::max(3, args.repeats / 2))));
 
     // --- single graph calls ------------------------------------------------------------
     const ardy::WindowInput in = rollout.prepare_window();
@@ -346,6 +369,12 @@ int main(int argc, char** argv) {
     o << "| measurement | p50 | p99 | n |\n|---|---|---|---|\n";
     o << "| window, 4 steps (DDIM, " << rows << " rows, decode, FK) | " << fmt(s4.p50) << " ms | " << fmt(s4.p99)
       << " ms | " << s4.count << " |\n";
+    for (size_t i = 1; i < batch_sizes.size(); ++i) {
+      const Summary& b = batches[i];
+      o << "| batch of " << batch_sizes[i] << " windows (characters), 4 steps, one call: per window | "
+        << fmt(b.p50 / double(batch_sizes[i])) << " ms | " << fmt(b.p99 / double(batch_sizes[i])) << " ms | " << b.count
+        << " |\n";
+    }
     o << "| window, 10 steps | " << fmt(s10.p50) << " ms | " << fmt(s10.p99) << " ms | " << s10.count << " |\n";
     o << "| window preparation (history, goals, cached text) | " << fmt(sp4.p50, 3) << " ms | " << fmt(sp4.p99, 3)
       << " ms | " << sp4.count << " |\n";
@@ -387,6 +416,9 @@ int main(int argc, char** argv) {
       j["load_seconds"] = load_s;
       j["window_4_ms"] = to_json(s4);
       j["window_10_ms"] = to_json(s10);
+      for (size_t i = 0; i < batch_sizes.size(); ++i) {
+        j["batch_window_4_ms"][std::to_string(batch_sizes[i])] = to_json(batches[i]);
+      }
       j["prepare_ms"] = to_json(sp4);
       j["denoiser_call_ms"] = to_json(sd);
       j["decoder_call_ms"] = to_json(sdec);

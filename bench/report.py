@@ -75,6 +75,17 @@ def main() -> None:
             us(cpp["sample_us"], "p99"),
         ),
     ]
+    for size, batch in cpp.get("batch_window_4_ms", {}).items():
+        if size == "1":
+            continue
+        n = int(size)
+        rows.append(
+            (
+                f"batch of {n} windows (characters), 4 steps, one call: per window",
+                f"{batch['p50'] / n:.2f} ms",
+                f"{batch['p99'] / n:.2f} ms",
+            )
+        )
     if "sample_hot_us" in cpp:
         rows.append(
             (

@@ -72,6 +72,7 @@ extern "C" {
 
 typedef struct ardy_model ardy_model;     /* a loaded model package (immutable) */
 typedef struct ardy_planner ardy_planner; /* one character's streaming planner */
+typedef struct ardy_batcher ardy_batcher; /* runs several planners' windows as one batch */
 
 typedef enum ardy_status {
   ARDY_OK = 0,
@@ -155,9 +156,39 @@ typedef struct ardy_planner_params {
   double output_smoothing_frames; /* output filter sigma in frames; < 0: the package's (default); 0: off */
   int32_t interpolate_root;       /* sparse root targets become paths: -1 the package's (default), 0 off, 1 on */
   double max_root_speed;          /* root goals never ask for more (m/s; default 6; 0: no limit) */
+  ardy_batcher* batcher;          /* NULL (default): the planner runs its own windows; else they go to this batcher */
 } ardy_planner_params;
 
 ARDY_API ardy_planner_params ardy_planner_default_params(void);
+
+/* --- batcher: several characters, one denoiser call per step ------------------ */
+
+/* Planners created with the same batcher (ardy_planner_params.batcher) hand
+ * their windows to its one inference thread, which runs the windows that
+ * arrive within gather_seconds of each other (same model, same step count) as
+ * one batch: far cheaper per character than one after the other. A planner
+ * keeps working if its batcher is freed first, but its windows then fail
+ * ("the window batcher is gone"). */
+typedef struct ardy_batcher_params {
+  double gather_seconds; /* wait this long after a batch's first window for others (default 0.002) */
+  uint32_t max_windows;  /* windows per batch; a full batch starts at once (default 16) */
+} ardy_batcher_params;
+
+typedef struct ardy_batcher_stats {
+  uint64_t batches;
+  uint64_t windows;       /* windows run in a batch */
+  uint64_t withdrawn;     /* windows whose planner stopped waiting (cancelled) */
+  uint64_t failed_batches;
+  uint32_t largest_batch;
+  uint32_t queued;        /* windows waiting for a batch now */
+} ardy_batcher_stats;
+
+ARDY_API ardy_batcher_params ardy_batcher_default_params(void);
+/* params may be NULL. On failure *out is NULL and ardy_last_error says why. */
+ARDY_API ardy_status ardy_batcher_create(const ardy_batcher_params* params, ardy_batcher** out);
+/* Waits for the batch in flight; NULL is ignored. */
+ARDY_API void ardy_batcher_free(ardy_batcher* batcher);
+ARDY_API ardy_status ardy_batcher_get_stats(const ardy_batcher* batcher, ardy_batcher_stats* out);
 /* params may be NULL. Starts the planner's worker thread; the first window is
  * generated at once. */
 ARDY_API ardy_status ardy_planner_create(ardy_model* model, const ardy_planner_params* params, ardy_planner** out);

@@ -24,11 +24,16 @@
 #include "onnx_session.hpp"
 #include "package.hpp"
 #include "planner.hpp"
+#include "window_batcher.hpp"
 
 struct ardy_model {
   std::shared_ptr<const ardy::ModelPackage> package;
   mutable std::mutex mutex;
   mutable std::string error;
+};
+
+struct ardy_batcher {
+  std::unique_ptr<ardy::WindowBatcher> batcher;
 };
 
 struct ardy_planner {
@@ -331,7 +336,50 @@ ardy_planner_params ardy_planner_default_params(void) {
   p.output_smoothing_frames = -1.0;
   p.interpolate_root = -1;
   p.max_root_speed = c.max_root_speed;
+  p.batcher = nullptr;
   return p;
+}
+
+ardy_batcher_params ardy_batcher_default_params(void) {
+  const ardy::WindowBatcherConfig c;
+  ardy_batcher_params p;
+  p.gather_seconds = c.gather_seconds;
+  p.max_windows = static_cast<uint32_t>(c.max_windows);
+  return p;
+}
+
+ardy_status ardy_batcher_create(const ardy_batcher_params* params, ardy_batcher** out) {
+  if (!out) return fail_global(ARDY_ERROR_INVALID_ARGUMENT, "ardy_batcher_create: out is NULL");
+  *out = nullptr;
+  Failure r = run_guarded(ARDY_ERROR_INVALID_ARGUMENT, [&]() -> ardy_status {
+    const ardy_batcher_params p = params ? *params : ardy_batcher_default_params();
+    auto handle = std::make_unique<ardy_batcher>();
+    handle->batcher = std::make_unique<ardy::WindowBatcher>(ardy::WindowBatcherConfig{p.gather_seconds, p.max_windows});
+    *out = handle.release();
+    return ARDY_OK;
+  });
+  if (r.status == ARDY_OK) return ARDY_OK;
+  return fail_global(r.status, "ardy_batcher_create: " + r.message);
+}
+
+void ardy_batcher_free(ardy_batcher* batcher) {
+  try {
+    delete batcher;
+  } catch (...) {
+  }
+}
+
+ardy_status ardy_batcher_get_stats(const ardy_batcher* batcher, ardy_batcher_stats* out) {
+  if (!batcher) return fail_global(ARDY_ERROR_INVALID_ARGUMENT, "ardy_batcher_get_stats: batcher is NULL");
+  if (!out) return fail_global(ARDY_ERROR_INVALID_ARGUMENT, "ardy_batcher_get_stats: out is NULL");
+  const ardy::WindowBatcherStats s = batcher->batcher->stats();
+  out->batches = s.batches;
+  out->windows = s.windows;
+  out->withdrawn = s.withdrawn;
+  out->failed_batches = s.failed_batches;
+  out->largest_batch = static_cast<uint32_t>(s.largest_batch);
+  out->queued = static_cast<uint32_t>(s.queued);
+  return ARDY_OK;
 }
 
 ardy_status ardy_planner_create(ardy_model* model, const ardy_planner_params* params, ardy_planner** out) {
@@ -363,6 +411,7 @@ ardy_status ardy_planner_create(ardy_model* model, const ardy_planner_params* pa
     }
     if (p.interpolate_root >= 0) c.interpolate_root = p.interpolate_root == 1;
     c.max_root_speed = p.max_root_speed;
+    if (p.batcher) c.generator = p.batcher->batcher->generator();
     auto handle = std::make_unique<ardy_planner>();
     handle->package = model->package;
     handle->planner = std::make_unique<ardy::Planner>(model->package, std::move(c));

@@ -342,6 +342,46 @@ static void test_planner_outlives_model(void) {
   ardy_planner_free(planner);
 }
 
+/* Two characters sharing a batcher: their first windows run as one batch. */
+static void test_batcher(void) {
+  ardy_model* model = NULL;
+  CHECK_STATUS(ardy_model_load_from_folder(TINY, NULL, &model), ARDY_OK);
+  ardy_batcher* batcher = NULL;
+  ardy_batcher_params bp = ardy_batcher_default_params();
+  CHECK(bp.max_windows == 16 && bp.gather_seconds > 0.0);
+  bp.max_windows = 0;
+  CHECK_STATUS(ardy_batcher_create(&bp, &batcher), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK(batcher == NULL);
+  CHECK_CONTAINS(ardy_last_error(), "max_windows is 0");
+  bp.gather_seconds = 10.0; /* the batch starts when both windows are there */
+  bp.max_windows = 2;
+  CHECK_STATUS(ardy_batcher_create(&bp, &batcher), ARDY_OK);
+
+  ardy_planner_params pp = ardy_planner_default_params();
+  pp.batcher = batcher;
+  ardy_planner *a = NULL, *b = NULL;
+  CHECK_STATUS(ardy_planner_create(model, &pp, &a), ARDY_OK);
+  CHECK_STATUS(ardy_planner_create(model, &pp, &b), ARDY_OK);
+  CHECK_STATUS(ardy_planner_wait_idle(a, 60.0), ARDY_OK);
+  CHECK_STATUS(ardy_planner_wait_idle(b, 60.0), ARDY_OK);
+  ardy_batcher_stats stats;
+  CHECK_STATUS(ardy_batcher_get_stats(batcher, &stats), ARDY_OK);
+  CHECK(stats.batches == 1 && stats.windows == 2 && stats.largest_batch == 2);
+  CHECK_STATUS(ardy_batcher_get_stats(batcher, NULL), ARDY_ERROR_INVALID_ARGUMENT);
+
+  /* Freed first: the planners' next windows fail with a clear message. */
+  ardy_batcher_free(batcher);
+  ardy_batcher_free(NULL);
+  CHECK_STATUS(ardy_planner_set_prompt(a, "a person walks"), ARDY_OK);
+  CHECK_STATUS(ardy_planner_wait_idle(a, 60.0), ARDY_OK);
+  char message[512];
+  CHECK(ardy_planner_pop_error(a, message, sizeof message));
+  CHECK_CONTAINS(message, "the window batcher is gone");
+  ardy_planner_free(a);
+  ardy_planner_free(b);
+  ardy_model_free(model);
+}
+
 int main(void) {
   test_library();
   test_load_errors();
@@ -353,6 +393,7 @@ int main(void) {
     ardy_model_free(model);
   }
   test_planner_outlives_model();
+  test_batcher();
   printf("test_c_api: %d checks, %d failed\n", g_checks, g_failures);
   return g_failures == 0 ? 0 : 1;
 }
