@@ -157,6 +157,13 @@ typedef struct ardy_planner_params {
   int32_t interpolate_root;       /* sparse root targets become paths: -1 the package's (default), 0 off, 1 on */
   double max_root_speed;          /* root goals never ask for more (m/s; default 6; 0: no limit) */
   ardy_batcher* batcher;          /* NULL (default): the planner runs its own windows; else they go to this batcher */
+  /* What the character was doing before (an animation it played, a pose held
+   * for a few frames): world explicit features [initial_history_frames,
+   * ardy_model_feature_size], the last frame just before time 0; the first
+   * window continues it. Frames: a multiple of the model's patch size (4).
+   * NULL / 0 (default): start from nothing at (start_x, start_z). Copied. */
+  const float* initial_history;
+  uint32_t initial_history_frames;
 } ardy_planner_params;
 
 ARDY_API ardy_planner_params ardy_planner_default_params(void);

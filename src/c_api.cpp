@@ -337,6 +337,8 @@ ardy_planner_params ardy_planner_default_params(void) {
   p.interpolate_root = -1;
   p.max_root_speed = c.max_root_speed;
   p.batcher = nullptr;
+  p.initial_history = nullptr;
+  p.initial_history_frames = 0;
   return p;
 }
 
@@ -412,6 +414,12 @@ ardy_status ardy_planner_create(ardy_model* model, const ardy_planner_params* pa
     if (p.interpolate_root >= 0) c.interpolate_root = p.interpolate_root == 1;
     c.max_root_speed = p.max_root_speed;
     if (p.batcher) c.generator = p.batcher->batcher->generator();
+    if (p.initial_history_frames > 0) {
+      require(p.initial_history != nullptr, "ardy_planner_params: initial_history is NULL but initial_history_frames is " +
+                                                std::to_string(p.initial_history_frames));
+      const size_t values = size_t{p.initial_history_frames} * model->package->layout().feature_size;
+      c.initial_history.assign(p.initial_history, p.initial_history + values);
+    }
     auto handle = std::make_unique<ardy_planner>();
     handle->package = model->package;
     handle->planner = std::make_unique<ardy::Planner>(model->package, std::move(c));

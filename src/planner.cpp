@@ -173,6 +173,21 @@ Planner::Planner(std::shared_ptr<const ModelPackage> package, PlannerConfig conf
   s.seed = config_.seed;
   smoothing_frames_ = config_.output_smoothing_frames.value_or(package_->sampling_defaults().output_smoothing_frames);
   rollout_ = with_context("Planner config", [&] { return std::make_unique<Rollout>(package_, s); });
+  if (!config_.initial_history.empty()) {
+    const size_t m = p.layout().feature_size;
+    const size_t frames = config_.initial_history.size() / m;
+    if (frames * m != config_.initial_history.size()) {
+      throw Error("Planner config: initial_history has " + std::to_string(config_.initial_history.size()) +
+                  " values, not a whole number of frames of " + std::to_string(m) + " features");
+    }
+    with_context("Planner config: initial_history", [&] {
+      rollout_->seed_history(config_.initial_history, frames);
+      return 0;
+    });
+    const size_t keep = std::min(frames, smoothing_radius(smoothing_frames_));
+    initial_shown_.assign(config_.initial_history.end() - static_cast<std::ptrdiff_t>(keep * m),
+                          config_.initial_history.end());
+  }
   master_ = std::make_unique<MasterState>();
   master_->settings = s;
   last_good_ = std::make_unique<MasterState>(*master_);
@@ -922,6 +937,10 @@ bool Planner::publish(int64_t start, bool splice, size_t tokens, Rollout before,
       context = it->shown.empty() ? it->result->features.data() : it->shown.data();
       context_frames = std::min(static_cast<size_t>(start - it->start), it->result->frame_count);
       break;
+    }
+    if (!context && start == 0 && !initial_shown_.empty()) {
+      context = initial_shown_.data();
+      context_frames = initial_shown_.size() / m;
     }
     filtered = smooth_features(layout, context, context_frames, shown, count, smoothing_frames_);
     features_to_motion(p.skeleton(), layout, filtered.data(), count, filtered_motion);

@@ -109,7 +109,14 @@ struct PlannerConfig {
   std::optional<double> output_smoothing_frames;
   std::optional<bool> interpolate_root;           // GoalSpec::interpolate_root; default: the package's
   double max_root_speed = kDefaultMaxRootSpeed;   // GoalSpec::max_root_speed (m/s; 0: no limit)
-  glm::dvec2 start_xz{0.0, 0.0};              // where the character starts
+  glm::dvec2 start_xz{0.0, 0.0};              // where the character starts (without initial_history)
+  // What the character was doing before the planner starts (an animation it
+  // played, a pose it holds for a few frames): world explicit features
+  // [frames, M] (features.hpp layout), frames a positive multiple of the
+  // patch size, the last one just before time 0. It becomes the history of
+  // the first window, which continues it (and the output filter's left
+  // context). Empty: the first window starts from nothing at start_xz.
+  std::vector<float> initial_history;
   uint64_t seed = 0;                          // noise of the windows
   // Replan buffer and queue.
   size_t min_buffer_frames = 0;               // B is at least this many frames
@@ -328,6 +335,7 @@ class Planner {
   int64_t patch_ = 0;
   size_t joints_ = 0;
   double smoothing_frames_ = 0.0;  // the output filter's sigma
+  std::vector<float> initial_shown_;  // the output filter's context before frame 0 (initial_history's end)
   size_t contacts_ = 0;
 
   // Shared with the caller.

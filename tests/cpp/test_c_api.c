@@ -176,6 +176,44 @@ static void test_planner(ardy_model* model) {
   CHECK_STATUS(ardy_planner_create(model, &params, &planner), ARDY_ERROR_INVALID_ARGUMENT);
   CHECK_CONTAINS(ardy_last_error(), "interpolate_root is 2");
   params = ardy_planner_default_params();
+  params.initial_history_frames = 8;
+  CHECK_STATUS(ardy_planner_create(model, &params, &planner), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_last_error(), "initial_history is NULL");
+  float history[6 * 512];
+  memset(history, 0, sizeof history);
+  params.initial_history = history;
+  params.initial_history_frames = 6;
+  CHECK(ardy_model_feature_size(model) <= 512);
+  CHECK_STATUS(ardy_planner_create(model, &params, &planner), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_last_error(), "multiple of the patch size");
+  {
+    /* A pose held for 8 frames at x = 2 (root position first, then the heading). */
+    float held[8 * 512];
+    const size_t m = ardy_model_feature_size(model);
+    memset(held, 0, sizeof held);
+    for (size_t f = 0; f < 8; ++f) {
+      held[f * m + 0] = 2.0f;
+      held[f * m + 1] = 0.9f;
+      held[f * m + 3] = 1.0f;
+    }
+    params.initial_history = held;
+    params.initial_history_frames = 8;
+    CHECK_STATUS(ardy_planner_create(model, &params, &planner), ARDY_OK);
+    CHECK_STATUS(ardy_planner_wait_idle(planner, 60.0), ARDY_OK);
+    ardy_pose_info at_2, at_102;
+    CHECK_STATUS(ardy_planner_sample(planner, 0.5, &at_2, NULL, NULL, NULL, 0, 0), ARDY_OK);
+    ardy_planner_free(planner);
+    /* The same pose 100 m further: the model sees the same (re-centred) history. */
+    for (size_t f = 0; f < 8; ++f) held[f * m + 0] = 102.0f;
+    CHECK_STATUS(ardy_planner_create(model, &params, &planner), ARDY_OK);
+    CHECK_STATUS(ardy_planner_wait_idle(planner, 60.0), ARDY_OK);
+    CHECK_STATUS(ardy_planner_sample(planner, 0.5, &at_102, NULL, NULL, NULL, 0, 0), ARDY_OK);
+    CHECK(fabsf(at_102.root_position[0] - at_2.root_position[0] - 100.0f) < 1e-3f);
+    CHECK(fabsf(at_102.root_position[2] - at_2.root_position[2]) < 1e-3f);
+    ardy_planner_free(planner);
+    planner = NULL;
+  }
+  params = ardy_planner_default_params();
   params.max_root_speed = -1.0;
   CHECK_STATUS(ardy_planner_create(model, &params, &planner), ARDY_ERROR_INVALID_ARGUMENT);
   CHECK_CONTAINS(ardy_last_error(), "max_root_speed is -1");

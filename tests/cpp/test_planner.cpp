@@ -804,6 +804,60 @@ TEST_CASE("constraints and keyboard velocity become the windows' goals", "[plann
   CHECK(planner.take_errors().empty());
 }
 
+TEST_CASE("a planner continues the motion it is given as initial history", "[planner]") {
+  const ardy::ModelPackage& p = *tiny_package();
+  const ardy::FeatureLayout& layout = p.layout();
+  const size_t m = layout.feature_size, frames = 8;
+  // Walking along +x at 1 m/s, ending at (3.35, -2) just before time 0.
+  const double speed = 1.0, psi = std::atan2(1.0, 0.0);
+  std::vector<float> history(frames * m, 0.0f);
+  for (size_t f = 0; f < frames; ++f) {
+    float* row = history.data() + f * m;
+    row[layout.root_position.start + 0] = float(3.0 + speed * double(f) / p.fps());
+    row[layout.root_position.start + 1] = 0.9f;
+    row[layout.root_position.start + 2] = -2.0f;
+    row[layout.heading.start + 0] = float(std::cos(psi));
+    row[layout.heading.start + 1] = float(std::sin(psi));
+    for (size_t j = 0; j < layout.joint_count; ++j) {
+      ardy::rotation_to_6d(ardy::heading_rotation(float(psi)), row + layout.rotation_6d_of(j).start);
+    }
+  }
+  const glm::vec3 last(history[(frames - 1) * m], 0.9f, -2.0f);
+  const glm::vec3 step(float(speed / p.fps()), 0.0f, 0.0f);
+
+  for (const double smoothing : {0.0, 1.5}) {
+    INFO("output filter sigma " << smoothing);
+    ModelDouble model(ModelDouble::Kind::smooth);
+    PlannerConfig config = model.fake_clock_config();
+    config.initial_history = history;
+    config.output_smoothing_frames = smoothing;
+    Planner planner(tiny_package(), config);
+    REQUIRE(planner.wait_idle());
+    const WindowInput first = model.inputs().front();
+    CHECK(first.history_tokens == frames / p.tokens().patch);
+    CHECK(first.offset.x == Catch::Approx(last.x));
+    CHECK(first.offset.y == Catch::Approx(last.z));
+    // Frame 0 follows on from the last history frame at its speed.
+    Pose pose;
+    REQUIRE(planner.frame_at(0, pose));
+    CHECK(glm::length(pose.root_position - (last + step)) < 0.01f);
+    REQUIRE(planner.frame_at(1, pose));
+    CHECK(glm::length(pose.root_position - (last + 2.0f * step)) < 0.02f);
+  }
+
+  PlannerConfig bad;
+  bad.initial_history.assign(6 * m, 0.0f);
+  CHECK_THAT(error_message([&] { Planner planner(tiny_package(), bad); }),
+             ContainsSubstring("initial_history: Rollout::seed_history: 6 frames, expected a positive multiple"));
+  bad.initial_history = history;
+  bad.initial_history[3 * m + 7] = std::nanf("");
+  CHECK_THAT(error_message([&] { Planner planner(tiny_package(), bad); }),
+             ContainsSubstring("feature 7 of frame 3 is not finite"));
+  bad.initial_history.resize(frames * m - 1);
+  CHECK_THAT(error_message([&] { Planner planner(tiny_package(), bad); }),
+             ContainsSubstring("not a whole number of frames"));
+}
+
 // --- errors --------------------------------------------------------------------------------------
 
 TEST_CASE("malformed inputs give clear errors and leave the planner usable", "[planner][errors]") {
