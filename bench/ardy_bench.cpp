@@ -14,7 +14,9 @@
 // Not a test: nothing is asserted.
 //
 //   ardy-bench --package DIR [--threads N] [--repeats N] [--json FILE]
-//              [--planner-seconds S] [--label TEXT] [--spin] [--future-tokens N]
+//              [--planner-seconds S] [--label TEXT] [--spin] [--shared-pool] [--future-tokens N]
+// --shared-pool gives every graph one intra-op pool (EnvironmentOptions)
+// instead of one per graph.
 // --spin lets ONNX Runtime's idle intra-op threads spin (the runtime's
 // default is off, so a waiting pool leaves the game's threads alone).
 
@@ -81,6 +83,14 @@ double peak_rss_mb() {
   return static_cast<double>(usage.ru_maxrss) / 1024.0;  // Linux: kilobytes
 }
 
+// User + system CPU seconds of the whole process so far.
+double process_cpu_seconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  const auto seconds = [](const timeval& t) { return double(t.tv_sec) + double(t.tv_usec) * 1e-6; };
+  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
+
 double current_rss_mb() {
   std::ifstream status("/proc/self/status");
   std::string line;
@@ -98,6 +108,7 @@ struct Args {
   double planner_seconds = 5.0;
   std::string label;
   bool spin = false;
+  bool shared_pool = false;
   int future_tokens = -1;  // -1: the package's maximum (the planner's default)
 };
 
@@ -128,9 +139,11 @@ Args parse(int argc, char** argv) {
       a.future_tokens = std::stoi(value());
     } else if (k == "--spin") {
       a.spin = true;
+    } else if (k == "--shared-pool") {
+      a.shared_pool = true;
     } else {
       std::cerr << "usage: ardy-bench --package DIR [--threads N] [--repeats N] [--json FILE] "
-                   "[--planner-seconds S] [--label TEXT] [--spin] [--future-tokens N]\n";
+                   "[--planner-seconds S] [--label TEXT] [--spin] [--shared-pool] [--future-tokens N]\n";
       std::exit(k == "--help" || k == "-h" ? 0 : 2);
     }
   }
@@ -246,6 +259,7 @@ int main(int argc, char** argv) {
     ardy::PackageOptions options;
     options.session.intra_op_threads = args.threads;
     options.session.allow_spinning = args.spin;
+    options.shared_thread_pool = args.shared_pool;
     const int threads = ardy::effective_intra_op_threads(args.threads);
     auto t0 = Clock::now();
     auto package = std::make_shared<const ardy::ModelPackage>(ardy::ModelPackage::from_folder(args.package, options));
@@ -306,6 +320,7 @@ int main(int argc, char** argv) {
     // --- planner on the caller's thread ---------------------------------------------------
     std::vector<double> advance_us, sample_us, frame_us, command_us, sample_hot_us;
     ardy::PlannerStats pstats;
+    double planner_cores = 0.0;  // CPU used by the process while the planner streamed, in cores
     {
       ardy::PlannerConfig config;
       ardy::Planner planner(package, config);
@@ -317,6 +332,8 @@ int main(int argc, char** argv) {
       const int frames = static_cast<int>(args.planner_seconds / dt);
       auto next = Clock::now();
       const char* prompts[] = {"a person runs forward", "a person walks in a circle", kPrompt};
+      const double cpu0 = process_cpu_seconds();
+      const auto wall0 = Clock::now();
       for (int i = 0; i < frames; ++i) {
         if (i > 0 && i % 60 == 0) {  // a command every second
           t0 = Clock::now();
@@ -338,6 +355,7 @@ int main(int argc, char** argv) {
         next += std::chrono::microseconds(16667);
         std::this_thread::sleep_until(next);
       }
+      planner_cores = (process_cpu_seconds() - cpu0) / seconds_since(wall0);
       pstats = planner.stats();
       // The same call in a hot loop (warm caches), averaged over chunks of 100 calls.
       planner.wait_idle(60.0);
@@ -361,7 +379,8 @@ int main(int argc, char** argv) {
 
     std::ostringstream o;
     o << "### C++ runtime (ONNX Runtime " << ardy::OnnxEnvironment::runtime_version() << ", " << threads
-      << " intra-op thread" << (threads == 1 ? "" : "s") << (args.spin ? " (spinning)" : "") << ", "
+      << " intra-op thread" << (threads == 1 ? "" : "s") << (args.spin ? " (spinning)" : "")
+      << (args.shared_pool ? ", one pool shared by every graph" : "") << ", "
       << std::thread::hardware_concurrency() << " cores)\n\n";
     o << "Model: " << label << " (C = " << t.window << " tokens = " << t.window_frames() << " frames, H = "
       << in.history_tokens << " history tokens, F = " << in.goals.future_tokens << " future tokens, " << rows
@@ -397,7 +416,8 @@ int main(int argc, char** argv) {
     o << "Memory: RSS " << fmt(rss_start, 0) << " MB at start, " << fmt(rss_loaded, 0) << " MB with the package loaded, peak "
       << fmt(rss_peak, 0) << " MB. Planner run: " << pstats.windows_published << " windows, " << pstats.splices
       << " splices, " << pstats.late_windows << " late, measured window latency " << fmt(pstats.last_latency_seconds * 1e3, 1)
-      << " ms, replan buffer B = " << pstats.buffer_frames << " frames, underrun " << fmt(pstats.underrun_seconds, 3) << " s.\n";
+      << " ms, replan buffer B = " << pstats.buffer_frames << " frames, underrun " << fmt(pstats.underrun_seconds, 3)
+      << " s; the process used " << fmt(planner_cores, 2) << " cores of CPU while it streamed (commands every second).\n";
     std::cout << o.str();
 
     if (!args.json.empty()) {
@@ -406,6 +426,7 @@ int main(int argc, char** argv) {
       j["package"] = args.package;
       j["threads"] = threads;
       j["spinning"] = args.spin;
+      j["shared_pool"] = args.shared_pool;
       j["cores"] = std::thread::hardware_concurrency();
       j["onnxruntime"] = ardy::OnnxEnvironment::runtime_version();
       j["window_tokens"] = t.window;
@@ -434,7 +455,8 @@ int main(int argc, char** argv) {
       j["rss_peak_mb"] = rss_peak;
       j["planner"] = {{"windows", pstats.windows_published}, {"splices", pstats.splices},
                       {"late", pstats.late_windows}, {"latency_ms", pstats.last_latency_seconds * 1e3},
-                      {"buffer_frames", pstats.buffer_frames}, {"underrun_s", pstats.underrun_seconds}};
+                      {"buffer_frames", pstats.buffer_frames}, {"underrun_s", pstats.underrun_seconds},
+                      {"cpu_cores", planner_cores}};
       std::ofstream(args.json) << j.dump(1) << "\n";
     }
   } catch (const std::exception& e) {

@@ -6,7 +6,8 @@
 #   bench/run.sh --package DIR --checkpoint CKPT.pt   # a trained package and its checkpoint
 #   options: --threads N (default: all cores), --repeats N (default 30),
 #            --future-tokens N (future goal tokens; default: the model's maximum, as the planner),
-#            --spin (ONNX Runtime threads spin while idle), --tiny-text (random package
+#            --spin (ONNX Runtime threads spin while idle), --shared-pool (one intra-op
+#            pool for every graph; with --spin the fastest setting), --tiny-text (random package
 #            with a tiny text encoder), --no-reference
 #
 # Without --package, bench/make_model.py writes a random-weight package of the
@@ -24,6 +25,7 @@ TINY_TEXT=""
 REFERENCE=1
 FUTURE=-1
 SPIN=
+SHARED=
 while [ $# -gt 0 ]; do
   case $1 in
     --package) PACKAGE=$2; shift 2 ;;
@@ -33,8 +35,9 @@ while [ $# -gt 0 ]; do
     --tiny-text) TINY_TEXT=--tiny-text; shift ;;
     --future-tokens) FUTURE=$2; shift 2 ;;
     --spin) SPIN=--spin; shift ;;
+    --shared-pool) SHARED=--shared-pool; shift ;;
     --no-reference) REFERENCE=0; shift ;;
-    -h|--help) sed -n '2,15p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,16p' "$0"; exit 0 ;;
     *) echo "bench/run.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -66,7 +69,7 @@ fi
 
 echo "bench: C++ runtime on $PACKAGE ($THREADS threads)" >&2
 "$BUILD/src/ardy-bench" --package "$PACKAGE" --threads "$THREADS" --repeats "$REPEATS" \
-  --future-tokens "$FUTURE" $SPIN --json "$OUT/cpp.json" ${LABEL:+--label "$LABEL"} >"$OUT/cpp.md"
+  --future-tokens "$FUTURE" $SPIN $SHARED --json "$OUT/cpp.json" ${LABEL:+--label "$LABEL"} >"$OUT/cpp.md"
 
 if [ "$REFERENCE" = 1 ] && [ -n "$CHECKPOINT" ]; then
   echo "bench: PyTorch reference on $CHECKPOINT ($THREADS threads)" >&2

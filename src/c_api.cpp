@@ -143,6 +143,8 @@ ardy::PackageOptions package_options(const ardy_model_params* params) {
   if (p.max_prompt_chars == 0) invalid("ardy_model_params: max_prompt_chars must be at least 1");
   ardy::PackageOptions options;
   options.session.intra_op_threads = p.intra_op_threads;
+  options.shared_thread_pool = p.fast_threads;
+  options.session.allow_spinning = p.fast_threads;
   options.text.cache_capacity = p.text_cache_capacity;
   options.text.max_prompt_chars = p.max_prompt_chars;
   return options;
@@ -202,6 +204,7 @@ ardy_model_params ardy_model_default_params(void) {
   p.intra_op_threads = 0;
   p.text_cache_capacity = 256;
   p.max_prompt_chars = 2000;
+  p.fast_threads = false;
   return p;
 }
 

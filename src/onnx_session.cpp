@@ -170,17 +170,30 @@ int effective_intra_op_threads(int requested) {
 
 struct OnnxEnvironment::Impl {
   Ort::Env env;
+  bool shared_pool = false;
 };
 
-OnnxEnvironment::OnnxEnvironment() {
+OnnxEnvironment::OnnxEnvironment(const EnvironmentOptions& options) {
   // The C++ header resolves the API table at static-init time; a runtime
   // older than the headers yields null there and every call would crash.
   if (Ort::Global<void>::api_ == nullptr) {
     throw Error("ONNX Runtime " + runtime_version() + " is older than the headers this library was built with (C API " +
                 std::to_string(ORT_API_VERSION) + " needed): install a newer libonnxruntime");
   }
+  if (options.shared_pool_threads < 0) {
+    throw Error("ONNX Runtime: shared_pool_threads must be 0 (all cores but one) or positive, got " +
+                std::to_string(options.shared_pool_threads));
+  }
   try {
-    impl_ = std::make_unique<Impl>(Impl{Ort::Env(ORT_LOGGING_LEVEL_WARNING, "ardy")});
+    if (options.shared_pool) {
+      Ort::ThreadingOptions threading;
+      threading.SetGlobalIntraOpNumThreads(effective_intra_op_threads(options.shared_pool_threads));
+      threading.SetGlobalInterOpNumThreads(1);
+      threading.SetGlobalSpinControl(options.allow_spinning ? 1 : 0);
+      impl_ = std::make_unique<Impl>(Impl{Ort::Env(threading, ORT_LOGGING_LEVEL_WARNING, "ardy"), true});
+    } else {
+      impl_ = std::make_unique<Impl>(Impl{Ort::Env(ORT_LOGGING_LEVEL_WARNING, "ardy"), false});
+    }
   } catch (const Ort::Exception& e) {
     throw Error(std::string("ONNX Runtime: cannot create the environment (") + e.what() + ")");
   }
@@ -188,7 +201,11 @@ OnnxEnvironment::OnnxEnvironment() {
 
 OnnxEnvironment::~OnnxEnvironment() = default;
 
-std::shared_ptr<OnnxEnvironment> OnnxEnvironment::create() { return std::make_shared<OnnxEnvironment>(); }
+std::shared_ptr<OnnxEnvironment> OnnxEnvironment::create(const EnvironmentOptions& options) {
+  return std::make_shared<OnnxEnvironment>(options);
+}
+
+bool OnnxEnvironment::shared_pool() const { return impl_ && impl_->shared_pool; }
 
 std::string OnnxEnvironment::runtime_version() {
   const char* version = OrtGetApiBase()->GetVersionString();
@@ -253,9 +270,15 @@ std::unique_ptr<OnnxSession::Impl> OnnxSession::Impl::load(std::shared_ptr<OnnxE
   impl->env = std::move(env);
   impl->name = name;
   try {
-    const Ort::SessionOptions ort_options = make_ort_options(name, options);
+    Ort::SessionOptions ort_options = make_ort_options(name, options);
+    if (impl->env->shared_pool()) ort_options.DisablePerSessionThreads();
     impl->session = make_session(impl->env->impl_->env, ort_options);
   } catch (const Ort::Exception& e) {
+    if (impl->env->shared_pool() && std::string(e.what()).find("GlobalThreadPools") != std::string::npos) {
+      throw Error(name + ": cannot use a shared thread pool: ONNX Runtime keeps one environment per process, and "
+                         "the one alive was made without a shared thread pool (load the model that asks for one "
+                         "first, or load this one without it)");
+    }
     throw Error(describe_load_failure(name, e));
   } catch (const std::bad_alloc&) {
     throw Error(name + ": out of memory while loading the ONNX model");

@@ -17,20 +17,32 @@
 
 namespace ardy {
 
+// How the sessions of an environment get their threads.
+struct EnvironmentOptions {
+  // One intra-op pool for every session of the environment (its size:
+  // shared_pool_threads, 0 = all cores but one), instead of a pool per session
+  // (SessionOptions thread settings are then ignored). ONNX Runtime keeps one
+  // environment per process, so the first one alive decides for all.
+  bool shared_pool = false;
+  int shared_pool_threads = 0;
+  bool allow_spinning = false;  // idle threads of the shared pool spin
+};
+
 // One ONNX Runtime environment (logging level warning, log id "ardy"), shared
 // by every session through std::shared_ptr so it outlives all of them.
 class OnnxEnvironment {
  public:
   // Throws Error when the loaded libonnxruntime cannot serve the API version
   // the headers were compiled against (an older runtime than the headers).
-  OnnxEnvironment();
+  explicit OnnxEnvironment(const EnvironmentOptions& options = {});
   ~OnnxEnvironment();
   OnnxEnvironment(const OnnxEnvironment&) = delete;
   OnnxEnvironment& operator=(const OnnxEnvironment&) = delete;
   OnnxEnvironment(OnnxEnvironment&&) = delete;
   OnnxEnvironment& operator=(OnnxEnvironment&&) = delete;
 
-  static std::shared_ptr<OnnxEnvironment> create();
+  static std::shared_ptr<OnnxEnvironment> create(const EnvironmentOptions& options = {});
+  bool shared_pool() const;
 
   // Version of the loaded libonnxruntime, e.g. "1.31.1".
   static std::string runtime_version();

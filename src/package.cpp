@@ -701,7 +701,15 @@ std::unique_ptr<ModelPackage::Impl> ModelPackage::Impl::load(const FileSource& s
   const Manifest manifest(root, manifest_file);
   impl->parse(manifest);
 
-  impl->env = options.environment ? options.environment : OnnxEnvironment::create();
+  if (options.environment) {
+    impl->env = options.environment;
+  } else {
+    EnvironmentOptions env;
+    env.shared_pool = options.shared_thread_pool;
+    env.shared_pool_threads = options.session.intra_op_threads;
+    env.allow_spinning = options.session.allow_spinning;
+    impl->env = OnnxEnvironment::create(env);
+  }
   const auto load_graph = [&](const std::string& key) {
     const GraphSpec& spec = impl->graphs.at(key);
     std::unique_ptr<OnnxSession> session;

@@ -432,6 +432,20 @@ int main(void) {
   }
   test_planner_outlives_model();
   test_batcher();
+  {
+    /* fast_threads needs the process's first ONNX Runtime environment; one
+     * without a shared pool is alive here (the model above). */
+    ardy_model* model_alive = NULL;
+    CHECK_STATUS(ardy_model_load_from_folder(TINY, NULL, &model_alive), ARDY_OK);
+    ardy_model_params fast = ardy_model_default_params();
+    CHECK(!fast.fast_threads);
+    fast.fast_threads = true;
+    ardy_model* refused = NULL;
+    CHECK(ardy_model_load_from_folder(TINY, &fast, &refused) != ARDY_OK);
+    CHECK(refused == NULL);
+    CHECK_CONTAINS(ardy_last_error(), "cannot use a shared thread pool");
+    ardy_model_free(model_alive);
+  }
   printf("test_c_api: %d checks, %d failed\n", g_checks, g_failures);
   return g_failures == 0 ? 0 : 1;
 }
