@@ -513,48 +513,56 @@ class Raster {
 
   // GoalSpec::interpolate_root: anchor is the root (x, z) of the frame before the first.
   void interpolate_root(const glm::dvec2& anchor) {
-    const size_t m = layout_.feature_size, px = layout_.root_position.start, pz = px + 2;
-    long long previous = -1;
-    glm::dvec2 from = anchor;
-    for (size_t f = 0; f < count_; ++f) {
-      if (!(mask_[f * m + px] > 0.0 && mask_[f * m + pz] > 0.0)) continue;
-      const glm::dvec2 to{goal_[f * m + px], goal_[f * m + pz]};
-      const long long target = static_cast<long long>(f);
+    walk_root_targets(anchor, [&](long long previous, const glm::dvec2& from, long long target, const glm::dvec2& to) {
       for (long long k = previous + 1; k < target; ++k) {
         const double a = static_cast<double>(k - previous) / static_cast<double>(target - previous);
-        const size_t at = static_cast<size_t>(k) * m;
-        goal_[at + px] = from.x + a * (to.x - from.x);
-        goal_[at + pz] = from.y + a * (to.y - from.y);
-        mask_[at + px] = 1.0;
-        mask_[at + pz] = 1.0;
+        set_root(k, from + a * (to - from));
       }
-      previous = target;
-      from = to;
-    }
+      return to;
+    });
   }
 
   // GoalSpec::max_root_speed: max_step is metres per frame.
   void limit_root_speed(const glm::dvec2& anchor, double max_step) {
-    const size_t m = layout_.feature_size, px = layout_.root_position.start, pz = px + 2;
-    long long previous = -1;
-    glm::dvec2 from = anchor;
-    for (size_t f = 0; f < count_; ++f) {
-      if (!(mask_[f * m + px] > 0.0 && mask_[f * m + pz] > 0.0)) continue;
-      const glm::dvec2 to{goal_[f * m + px], goal_[f * m + pz]};
-      const double allowed = max_step * static_cast<double>(static_cast<long long>(f) - previous);
+    walk_root_targets(anchor, [&](long long previous, const glm::dvec2& from, long long frame, const glm::dvec2& to) {
+      const double allowed = max_step * static_cast<double>(frame - previous);
       const double distance = glm::length(to - from);
       const glm::dvec2 reached = distance > allowed ? from + (to - from) * (allowed / distance) : to;
-      goal_[f * m + px] = reached.x;
-      goal_[f * m + pz] = reached.y;
-      previous = static_cast<long long>(f);
-      from = reached;
-    }
+      set_root(frame, reached);
+      return reached;
+    });
   }
 
   const std::vector<double>& goal() const { return goal_; }
   const std::vector<double>& mask() const { return mask_; }
 
  private:
+  // Visits the frames whose root x and z are both constrained, in order,
+  // starting from `anchor` at frame -1: step(previous, from, frame, to)
+  // returns where the root is at `frame` (the next visit's `from`).
+  template <typename Step>
+  void walk_root_targets(const glm::dvec2& anchor, Step&& step) {
+    const size_t m = layout_.feature_size, px = layout_.root_position.start, pz = px + 2;
+    long long previous = -1;
+    glm::dvec2 from = anchor;
+    for (size_t f = 0; f < count_; ++f) {
+      if (!(mask_[f * m + px] > 0.0 && mask_[f * m + pz] > 0.0)) continue;
+      const long long frame = static_cast<long long>(f);
+      from = step(previous, from, frame, glm::dvec2{goal_[f * m + px], goal_[f * m + pz]});
+      previous = frame;
+    }
+  }
+
+  // Constrains the root's x and z at `frame` (relative to the first frame).
+  void set_root(long long frame, const glm::dvec2& xz) {
+    const size_t m = layout_.feature_size, px = layout_.root_position.start, pz = px + 2;
+    const size_t at = static_cast<size_t>(frame) * m;
+    goal_[at + px] = xz.x;
+    goal_[at + pz] = xz.y;
+    mask_[at + px] = 1.0;
+    mask_[at + pz] = 1.0;
+  }
+
   const FeatureLayout& layout_;
   int64_t first_;
   size_t count_;

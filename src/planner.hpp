@@ -136,7 +136,10 @@ struct PlannerConfig {
   // splice before its start (it would be replaced entirely).
   bool cancel_obsolete_windows = true;
   size_t max_errors = 32;  // queued error messages kept (oldest dropped)
-  // Injection points (tests, tools). Empty: generate_window and steady_clock.
+  // How windows are made, and the latency clock. Empty: generate_window on
+  // this planner's worker, and steady_clock. Several characters: give every
+  // planner the generator() of one WindowBatcher (window_batcher.hpp). Tests
+  // and tools wrap generate_window here (delay, faults, a fake clock).
   WindowGenerator generator;
   PlannerClock clock;
 };
