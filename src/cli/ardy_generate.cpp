@@ -5,7 +5,7 @@
 //                 [--seed N] [--steps K] [--threads N] [--out-bvh out.bvh]
 //                 [--out-json out.json] [--w-text W] [--w-con W]
 //                 [--commit-tokens N] [--history-seconds S] [--smoothing S]
-//                 [--interpolate-root on|off]
+//                 [--interpolate-root on|off] [--max-root-speed V]
 //
 // The timeline schema is timeline.hpp's (export_tools' timeline.py). Exit
 // codes: 0 success, 1 a runtime failure (bad model, bad timeline, I/O), 2 bad
@@ -45,7 +45,7 @@ constexpr const char* kUsage =
     "usage: ardy-generate --model DIR --timeline TIMELINE.json --seconds S [--seed N] [--steps K]\n"
     "                     [--out-bvh out.bvh] [--out-json out.json] [--threads N]\n"
     "                     [--w-text W] [--w-con W] [--commit-tokens N] [--history-seconds S]\n"
-    "                     [--smoothing S] [--interpolate-root on|off]\n"
+    "                     [--smoothing S] [--interpolate-root on|off] [--max-root-speed V]\n"
     "\n"
     "  --model DIR            model package folder (model.json, graphs, vocab.txt)\n"
     "  --timeline FILE        JSON timeline: {\"prompts\": [{\"time\", \"text\"}], \"constraints\": [...]}\n"
@@ -60,7 +60,8 @@ constexpr const char* kUsage =
     "  --history-seconds S    history length (default and maximum: the model's)\n"
     "  --smoothing S          output filter sigma in frames, 0 = raw model output (default: the package's)\n"
     "  --interpolate-root on|off  turn sparse root targets (waypoints, keyframe roots) into a path from\n"
-    "                         the character's position (default: the package's)\n";
+    "                         the character's position (default: the package's)\n"
+    "  --max-root-speed V     root targets never ask for more than V m/s, 0 = no limit (default 6)\n";
 
 // A bad command line: exit code 2.
 struct UsageError {
@@ -99,6 +100,7 @@ struct Arguments {
   std::optional<double> history_seconds;
   std::optional<double> smoothing;
   std::optional<bool> interpolate_root;
+  std::optional<double> max_root_speed;
 };
 
 Arguments parse_arguments(int argc, char** argv) {
@@ -106,7 +108,7 @@ Arguments parse_arguments(int argc, char** argv) {
   const std::vector<std::string> known{"--model",  "--timeline", "--seconds",       "--seed",
                                        "--steps",  "--out-bvh",  "--out-json",      "--threads",
                                        "--w-text", "--w-con",    "--commit-tokens", "--history-seconds",
-                                       "--smoothing", "--interpolate-root"};
+                                       "--smoothing", "--interpolate-root", "--max-root-speed"};
   for (int i = 1; i < argc; ++i) {
     std::string arg = argv[i];
     std::string value;
@@ -170,6 +172,7 @@ Arguments parse_arguments(int argc, char** argv) {
     if (v != "on" && v != "off") throw UsageError{"--interpolate-root must be on or off, got '" + v + "'"};
     a.interpolate_root = v == "on";
   }
+  if (values.count("--max-root-speed")) a.max_root_speed = number("--max-root-speed", 0.0, 1000.0);
   return a;
 }
 
@@ -331,6 +334,7 @@ int run(const Arguments& args) {
   settings.w_con = args.w_con;
   settings.commit_tokens = args.commit_tokens;
   settings.interpolate_root = args.interpolate_root;
+  if (args.max_root_speed) settings.max_root_speed = *args.max_root_speed;
   if (args.history_seconds) {
     settings.history_tokens =
         static_cast<size_t>(std::llround(*args.history_seconds * package->fps() / double(t.patch)));

@@ -254,6 +254,31 @@ TEST_CASE("ardy-generate writes a BVH and a per-frame JSON that agree", "[cli]")
   CHECK(read_text(again) == read_text(bvh_path));
 }
 
+TEST_CASE("ardy-generate limits the root's speed toward a far waypoint unless told otherwise", "[cli]") {
+  // 30 m in one second: the hips may only get 6 m closer (plus the model's own
+  // step), or reach it with --max-root-speed 0.
+  const fs::path timeline = write_timeline("far.json", R"({"prompts": [{"time": 0, "text": "walk"}],
+    "constraints": [{"type": "waypoint", "time": 1.0, "x": 30.0, "z": 0.0}]})");
+  const auto hips_x_at_1s = [&](const std::string& extra) {
+    const fs::path out = work_dir() / "far.json.out";
+    const RunResult r = run_cli("--model " + quote(model_dir()) + " --timeline " + quote(timeline.string()) +
+                                " --seconds 2 --threads 1 --interpolate-root off --out-json " + quote(out.string()) +
+                                extra);
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    const std::vector<unsigned char> bytes = ardy_test::read_bytes(out.string());
+    const nlohmann::json doc = nlohmann::json::parse(bytes.begin(), bytes.end());
+    return doc.at("frames")[20].at("positions")[0][0].get<double>();
+  };
+  CHECK(hips_x_at_1s(" --max-root-speed 0") == Catch::Approx(30.0).margin(1e-3));
+  CHECK(hips_x_at_1s("") < 10.0);
+  CHECK(hips_x_at_1s(" --max-root-speed 6") < 10.0);
+  const RunResult bad = run_cli("--model " + quote(model_dir()) + " --timeline " + quote(timeline.string()) +
+                                " --seconds 1 --max-root-speed -2");
+  CHECK(bad.code == 2);
+  CHECK_THAT(bad.err, ContainsSubstring("--max-root-speed"));
+}
+
 TEST_CASE("ardy-generate refuses bad arguments with exit code 2 and a message", "[cli][errors]") {
   const fs::path timeline = write_timeline("ok.json", R"({"prompts": [{"time": 0, "text": "walk"}]})");
   const std::string base = "--model " + quote(model_dir()) + " --timeline " + quote(timeline.string());
