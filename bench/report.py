@@ -115,7 +115,8 @@ def main() -> None:
         f"{cpp['rss_peak_mb']:.0f} MB. Planner run ({p['windows']} windows, "
         f"{p['splices']} splices, {p['late']} late): last window latency "
         f"{p['latency_ms']:.1f} ms, replan buffer "
-        f"{p['buffer_frames']} frames, underrun {p['underrun_s']:.3f} s."
+        f"{p['buffer_frames']} frames, underrun {p['underrun_s']:.3f} s"
+        + (f"; CPU used while it streamed: {p['cpu_cores']:.2f} cores." if "cpu_cores" in p else ".")
     )
 
 
