@@ -177,6 +177,10 @@ std::vector<float> NoiseGenerator::normal(size_t count) {
 
 namespace {
 
+// Frames over which root continuity's height displacement returns to 0
+// after the last constrained frame (0.5 s at the models' 20 fps).
+constexpr size_t kHeightReturnFrames = 10;
+
 // The in-window root overwrite of x0 [C, D] (sampler.py), and
 // WindowInput::root_continuity when `continuous`.
 void overwrite_root(const WindowInput& in, const FeatureLayout& layout, const TokenSizes& t, std::vector<float>& x0,
@@ -202,7 +206,11 @@ void overwrite_root(const WindowInput& in, const FeatureLayout& layout, const To
       continue;
     }
     // Displacements: v * (goal - x0) at constrained frames, 0 before the
-    // window, linear in between, held after the last constrained frame.
+    // window, linear in between, held after the last constrained frame: the
+    // ground position keeps it (a waypoint reached stays reached); the
+    // height returns to the model's own over kHeightReturnFrames, so a
+    // keyframe's hips height does not leave the body floating or sunk.
+    const bool height = q == position_begin + 1;
     long long known = -1;
     float known_shift = 0.0f;
     size_t f = 0;
@@ -216,10 +224,14 @@ void overwrite_root(const WindowInput& in, const FeatureLayout& layout, const To
         next_shift = v * (in.goals.window_goal[goal_index(next, q)] - value_at(next, q));
       }
       for (size_t g = f; g < next; ++g) {
-        const float a = found ? static_cast<float>(static_cast<long long>(g) - known) /
-                                    static_cast<float>(static_cast<long long>(next) - known)
-                              : 1.0f;
-        value_at(g, q) += known_shift + a * (next_shift - known_shift);
+        const auto after = static_cast<float>(static_cast<long long>(g) - known);
+        float shift = known_shift;
+        if (found) {
+          shift += after / static_cast<float>(static_cast<long long>(next) - known) * (next_shift - known_shift);
+        } else if (height && known >= 0) {
+          shift *= std::max(0.0f, 1.0f - after / static_cast<float>(kHeightReturnFrames + 1));
+        }
+        value_at(g, q) += shift;
       }
       if (!found) break;
       value_at(next, q) += next_shift;

@@ -109,7 +109,8 @@ struct WindowInput {
   // With root_overwrite, after the last step: the root position entries the
   // goals leave free are moved too, by the overwrite's displacement
   // interpolated between constrained frames (0 at the frame before the
-  // window, held after the last constrained frame). Where the model's own
+  // window; after the last constrained frame held on the ground (x, z) and
+  // returning to 0 over 10 frames for the height). Where the model's own
   // root disagrees with the goals (it follows isolated targets poorly), the
   // root then has no step at the end of an overwritten stretch. Off in the
   // reference sampler (sampler.py), so the goldens' windows keep it off.

@@ -396,6 +396,26 @@ TEST_CASE("root_continuity moves the free root positions with the overwrite, so 
     CHECK(entry(continuous, f, 1) == entry(plain, f, 1));
     CHECK(entry(continuous, f, 3) == entry(plain, f, 3));
   }
+
+  // A root target with a height (a keyframe's hips): after it, the ground
+  // position keeps the displacement, the height returns to the model's own
+  // over 10 frames.
+  Rollout with_height(package, settings);
+  with_height.constraints().add(ardy::JointTarget{k, 0, glm::dvec3(2.5, 1.4, -1.0), std::nullopt});
+  WindowInput hin = with_height.prepare_window();
+  hin.root_continuity = false;
+  const WindowResult hplain = ardy::generate_window(*package, hin, noise);
+  hin.root_continuity = true;
+  const WindowResult hcont = ardy::generate_window(*package, hin, noise);
+  const float lift = entry(hcont, k + 1, 1) - entry(hplain, k + 1, 1);
+  CHECK(std::abs(lift) > 1e-3f);
+  for (size_t f = k + 1; f < frames; ++f) {
+    INFO("frame " << f);
+    const float expected = lift * std::max(0.0f, 1.0f - float(f - k) / 11.0f) / (1.0f - 1.0f / 11.0f);
+    CHECK_THAT(entry(hcont, f, 1) - entry(hplain, f, 1), Catch::Matchers::WithinAbs(expected, 1e-4));
+    CHECK_THAT(entry(hcont, f, 0) - entry(hplain, f, 0),
+               Catch::Matchers::WithinAbs(entry(hcont, k + 1, 0) - entry(hplain, k + 1, 0), 1e-4));
+  }
 }
 
 // --- seeding, snapshots, settings -------------------------------------------------------------------
