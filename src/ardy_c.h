@@ -162,6 +162,7 @@ typedef struct ardy_planner_params {
   double output_smoothing_frames; /* output filter sigma in frames; < 0: the package's (default); 0: off */
   int32_t interpolate_root;       /* sparse root targets become paths: -1 the package's (default), 0 off, 1 on */
   double max_root_speed;          /* root goals never ask for more (m/s; default 6; 0: no limit) */
+  bool foot_lock;                 /* planted feet held in place by leg IK on the output (default true) */
   ardy_batcher* batcher;          /* NULL (default): the planner runs its own windows; else they go to this batcher */
   /* What the character was doing before (an animation it played, a pose held
    * for a few frames): world explicit features [initial_history_frames,

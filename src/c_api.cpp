@@ -339,6 +339,7 @@ ardy_planner_params ardy_planner_default_params(void) {
   p.output_smoothing_frames = -1.0;
   p.interpolate_root = -1;
   p.max_root_speed = c.max_root_speed;
+  p.foot_lock = c.foot_lock;
   p.batcher = nullptr;
   p.initial_history = nullptr;
   p.initial_history_frames = 0;
@@ -416,6 +417,7 @@ ardy_status ardy_planner_create(ardy_model* model, const ardy_planner_params* pa
     }
     if (p.interpolate_root >= 0) c.interpolate_root = p.interpolate_root == 1;
     c.max_root_speed = p.max_root_speed;
+    c.foot_lock = p.foot_lock;
     if (p.batcher) c.generator = p.batcher->batcher->generator();
     if (p.initial_history_frames > 0) {
       require(p.initial_history != nullptr, "ardy_planner_params: initial_history is NULL but initial_history_frames is " +

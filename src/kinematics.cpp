@@ -119,6 +119,47 @@ glm::mat3 heading_rotation(float psi) {
 
 float heading_angle(float cos_psi, float sin_psi) { return std::atan2(sin_psi, cos_psi); }
 
+glm::mat3 rotation_about(const glm::vec3& axis, float angle) {
+  // Rodrigues: R = I cos + (1 - cos) a a^T + sin [a]x (GLM matrices are column-major).
+  const float c = std::cos(angle), s = std::sin(angle), t = 1.0f - c;
+  const float x = axis.x, y = axis.y, z = axis.z;
+  return glm::mat3(glm::vec3(t * x * x + c, t * x * y + s * z, t * x * z - s * y),
+                   glm::vec3(t * x * y - s * z, t * y * y + c, t * y * z + s * x),
+                   glm::vec3(t * x * z + s * y, t * y * z - s * x, t * z * z + c));
+}
+
+glm::mat3 rotation_between(const glm::vec3& u, const glm::vec3& v) {
+  const glm::vec3 axis = glm::cross(u, v);
+  const float sine = glm::length(axis), cosine = glm::dot(u, v);
+  if (sine > 1e-7f) return rotation_about(axis / sine, std::atan2(sine, cosine));
+  if (cosine > 0.0f) return glm::mat3(1.0f);
+  // Opposite: a half turn about any axis perpendicular to u.
+  const glm::vec3 other = std::abs(u.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
+  return rotation_about(glm::normalize(glm::cross(u, other)), 3.14159265358979f);
+}
+
+TwoBoneRotations two_bone_ik(const glm::vec3& a, const glm::vec3& b, const glm::vec3& c, const glm::vec3& target,
+                             const glm::vec3& bend_axis) {
+  const float upper = glm::length(b - a), lower = glm::length(c - b);
+  if (upper < 1e-6f || lower < 1e-6f) return {};
+  // Never quite straight (the knee's plane would be lost) nor folded.
+  const float reach = std::clamp(glm::length(target - a), std::abs(upper - lower) + 1e-4f, 0.999f * (upper + lower));
+  glm::vec3 normal = glm::cross(b - a, c - b);
+  const float bend = glm::length(normal);
+  normal = bend > 1e-4f * upper * lower ? normal / bend : bend_axis;
+  // The knee's interior angle now and for `reach` (law of cosines); turning
+  // the lower bone by +phi about `normal` closes the angle by phi.
+  const float now = std::acos(std::clamp(glm::dot(glm::normalize(a - b), glm::normalize(c - b)), -1.0f, 1.0f));
+  const float wanted =
+      std::acos(std::clamp((upper * upper + lower * lower - reach * reach) / (2.0f * upper * lower), -1.0f, 1.0f));
+  const glm::mat3 knee = rotation_about(normal, now - wanted);
+  const glm::vec3 ankle = b + knee * (c - b);
+  const glm::vec3 to_target = target - a;
+  if (glm::length(to_target) < 1e-6f) return {glm::mat3(1.0f), knee};
+  const glm::mat3 swing = rotation_between(glm::normalize(ankle - a), glm::normalize(to_target));
+  return {swing, swing * knee};
+}
+
 void local_to_global(const Skeleton& skeleton, const std::vector<glm::mat3>& local, std::vector<glm::mat3>& global) {
   const size_t n = skeleton.joint_count();
   check_size("local_to_global: local rotations", local.size(), n);

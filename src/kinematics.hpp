@@ -48,6 +48,26 @@ glm::mat3 heading_rotation(float psi);
 // psi from the (cos psi, sin psi) pair the features store; need not be unit.
 float heading_angle(float cos_psi, float sin_psi);
 
+// Rotation by `angle` radians about the unit `axis` (right-handed).
+glm::mat3 rotation_about(const glm::vec3& axis, float angle);
+// The shortest rotation taking unit vector u onto unit vector v (a half turn
+// about some axis perpendicular to u when they are opposite).
+glm::mat3 rotation_between(const glm::vec3& u, const glm::vec3& v);
+
+// Two-bone IK of a limb with joints a (hip), b (knee), c (ankle), world
+// space: world-space rotations to premultiply onto the upper bone's world
+// rotation (`upper`) and the lower bone's (`lower`) so that the ankle reaches
+// `target` (or as close as the bone lengths allow, never fully straight), the
+// bones keep their lengths and the knee keeps bending in the plane it bends
+// in now; `bend_axis` (unit) is that plane's normal for a straight limb (for
+// a leg: the character's left-to-right axis).
+struct TwoBoneRotations {
+  glm::mat3 upper{1.0f};
+  glm::mat3 lower{1.0f};
+};
+TwoBoneRotations two_bone_ik(const glm::vec3& a, const glm::vec3& b, const glm::vec3& c, const glm::vec3& target,
+                             const glm::vec3& bend_axis);
+
 // --- skeletons ---------------------------------------------------------------
 
 // Parent-relative rotations -> world rotations (global[0] = local[0]).

@@ -98,6 +98,7 @@ struct Planner::Segment {
   Rollout before;
   std::shared_ptr<const WindowResult> result;
   std::vector<float> shown;  // the output filter's features of the frames (empty: filter off)
+  std::vector<FootLockState> foot_states;  // after each frame (empty: no foot locking)
 };
 
 // What the commands have set: the worker's copy, applied to the rollout
@@ -172,6 +173,10 @@ Planner::Planner(std::shared_ptr<const ModelPackage> package, PlannerConfig conf
   s.max_root_speed = config_.max_root_speed;
   s.seed = config_.seed;
   smoothing_frames_ = config_.output_smoothing_frames.value_or(package_->sampling_defaults().output_smoothing_frames);
+  if (config_.foot_lock) {
+    foot_locker_.emplace(p.skeleton(), p.layout(), p.contact_joints());
+    if (!foot_locker_->available()) foot_locker_.reset();
+  }
   rollout_ = with_context("Planner config", [&] { return std::make_unique<Rollout>(package_, s); });
   if (!config_.initial_history.empty()) {
     const size_t m = p.layout().feature_size;
@@ -948,6 +953,33 @@ bool Planner::publish(int64_t start, bool splice, size_t tokens, Rollout before,
     motion = &filtered_motion;
   }
 
+  // Foot locking (foot_lock.hpp) on what is shown, from the state of the
+  // frame before `start`.
+  std::vector<FootLockState> foot_states;
+  if (foot_locker_) {
+    if (motion != &filtered_motion) {
+      const size_t values = count * joints_;
+      filtered_motion.frame_count = count;
+      filtered_motion.joint_count = joints_;
+      filtered_motion.global_rotations.assign(motion->global_rotations.begin(),
+                                              motion->global_rotations.begin() + static_cast<std::ptrdiff_t>(values));
+      filtered_motion.local_rotations.assign(motion->local_rotations.begin(),
+                                             motion->local_rotations.begin() + static_cast<std::ptrdiff_t>(values));
+      filtered_motion.positions.assign(motion->positions.begin(),
+                                       motion->positions.begin() + static_cast<std::ptrdiff_t>(values));
+      motion = &filtered_motion;
+    }
+    FootLockState state;
+    for (auto it = segments_.rbegin(); it != segments_.rend(); ++it) {
+      if (it->start >= start) continue;
+      const auto at = static_cast<size_t>(start - 1 - it->start);
+      if (at < it->foot_states.size()) state = it->foot_states[at];
+      break;
+    }
+    const float* goal_mask = result->goal_mask.empty() ? nullptr : result->goal_mask.data();
+    foot_locker_->apply(shown, filtered_motion, state, &foot_states, goal_mask);
+  }
+
   auto block = std::make_shared<FrameBlock>();
   block->start = start;
   block->count = count;
@@ -1000,7 +1032,8 @@ bool Planner::publish(int64_t start, bool splice, size_t tokens, Rollout before,
     const int64_t end = last.start + static_cast<int64_t>(last.tokens) * patch_;
     if (end > start) last.tokens = static_cast<size_t>((start - last.start) / patch_);
   }
-  segments_.push_back(Segment{start, tokens, window_id, std::move(before), std::move(result), std::move(filtered)});
+  segments_.push_back(Segment{start, tokens, window_id, std::move(before), std::move(result), std::move(filtered),
+                              std::move(foot_states)});
   *rollout_ = std::move(after);
   return true;
 }

@@ -75,6 +75,7 @@
 
 #include "constraints.hpp"
 #include "error.hpp"
+#include "foot_lock.hpp"
 #include "package.hpp"
 #include "rollout.hpp"
 #include "sampler.hpp"
@@ -107,6 +108,8 @@ struct PlannerConfig {
   // Output filter sigma in frames (motion_filter.hpp) on the frames shown;
   // the history the model reads stays raw. Unset: the package's; 0: off.
   std::optional<double> output_smoothing_frames;
+  // Foot locking (foot_lock.hpp) on the frames shown: planted feet stay put.
+  bool foot_lock = true;
   std::optional<bool> interpolate_root;           // GoalSpec::interpolate_root; default: the package's
   double max_root_speed = kDefaultMaxRootSpeed;   // GoalSpec::max_root_speed (m/s; 0: no limit)
   glm::dvec2 start_xz{0.0, 0.0};              // where the character starts (without initial_history)
@@ -339,6 +342,7 @@ class Planner {
   size_t joints_ = 0;
   double smoothing_frames_ = 0.0;  // the output filter's sigma
   std::vector<float> initial_shown_;  // the output filter's context before frame 0 (initial_history's end)
+  std::optional<FootLocker> foot_locker_;  // set when config_.foot_lock and the skeleton has legs
   size_t contacts_ = 0;
 
   // Shared with the caller.

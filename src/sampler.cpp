@@ -522,6 +522,7 @@ std::vector<WindowResult> generate_windows(const ModelPackage& package, const st
     result.offset = in.offset;
     result.history_tokens = h;
     result.prompt = in.prompt;
+    result.goal_mask = in.goals.window_goal_mask;
     result.frame_count = t.window * t.patch;
     result.tokens = x0[w];
     result.features = window_features(package, result.tokens, body, in.offset);

@@ -136,6 +136,7 @@ struct WindowResult {
   glm::dvec2 offset{0.0};
   size_t history_tokens = 0;
   std::optional<std::string> prompt;
+  std::vector<float> goal_mask;  // the window's goal mask, frame by frame [C * P, M] (what was constrained)
   size_t frame_count = 0;       // C * P
   std::vector<float> tokens;    // x0 [C, D]: normalized, model frame
   std::vector<float> features;  // [C * P, M]: world explicit features

@@ -5,7 +5,7 @@
 //                 [--seed N] [--steps K] [--threads N] [--out-bvh out.bvh]
 //                 [--out-json out.json] [--w-text W] [--w-con W]
 //                 [--commit-tokens N] [--history-seconds S] [--smoothing S]
-//                 [--interpolate-root on|off] [--max-root-speed V]
+//                 [--interpolate-root on|off] [--max-root-speed V] [--foot-lock on|off]
 //
 // The timeline schema is timeline.hpp's (export_tools' timeline.py). Exit
 // codes: 0 success, 1 a runtime failure (bad model, bad timeline, I/O), 2 bad
@@ -33,6 +33,7 @@
 #include "error.hpp"
 #include "io.hpp"
 #include "kinematics.hpp"
+#include "foot_lock.hpp"
 #include "motion_filter.hpp"
 #include "package.hpp"
 #include "rollout.hpp"
@@ -46,6 +47,7 @@ constexpr const char* kUsage =
     "                     [--out-bvh out.bvh] [--out-json out.json] [--threads N]\n"
     "                     [--w-text W] [--w-con W] [--commit-tokens N] [--history-seconds S]\n"
     "                     [--smoothing S] [--interpolate-root on|off] [--max-root-speed V]\n"
+    "                     [--foot-lock on|off]\n"
     "\n"
     "  --model DIR            model package folder (model.json, graphs, vocab.txt)\n"
     "  --timeline FILE        JSON timeline: {\"prompts\": [{\"time\", \"text\"}], \"constraints\": [...]}\n"
@@ -61,7 +63,8 @@ constexpr const char* kUsage =
     "  --smoothing S          output filter sigma in frames, 0 = raw model output (default: the package's)\n"
     "  --interpolate-root on|off  turn sparse root targets (waypoints, keyframe roots) into a path from\n"
     "                         the character's position (default: the package's)\n"
-    "  --max-root-speed V     root targets never ask for more than V m/s, 0 = no limit (default 6)\n";
+    "  --max-root-speed V     root targets never ask for more than V m/s, 0 = no limit (default 6)\n"
+    "  --foot-lock on|off     hold planted feet in place by leg IK on the output (default on)\n";
 
 // A bad command line: exit code 2.
 struct UsageError {
@@ -101,6 +104,7 @@ struct Arguments {
   std::optional<double> smoothing;
   std::optional<bool> interpolate_root;
   std::optional<double> max_root_speed;
+  bool foot_lock = true;
 };
 
 Arguments parse_arguments(int argc, char** argv) {
@@ -108,7 +112,8 @@ Arguments parse_arguments(int argc, char** argv) {
   const std::vector<std::string> known{"--model",  "--timeline", "--seconds",       "--seed",
                                        "--steps",  "--out-bvh",  "--out-json",      "--threads",
                                        "--w-text", "--w-con",    "--commit-tokens", "--history-seconds",
-                                       "--smoothing", "--interpolate-root", "--max-root-speed"};
+                                       "--smoothing", "--interpolate-root", "--max-root-speed",
+                                       "--foot-lock"};
   for (int i = 1; i < argc; ++i) {
     std::string arg = argv[i];
     std::string value;
@@ -167,11 +172,13 @@ Arguments parse_arguments(int argc, char** argv) {
   if (values.count("--commit-tokens")) a.commit_tokens = static_cast<size_t>(integer("--commit-tokens", 1, 100000));
   if (values.count("--history-seconds")) a.history_seconds = number("--history-seconds", 0.0, 3600.0);
   if (values.count("--smoothing")) a.smoothing = number("--smoothing", 0.0, ardy::kMaxSmoothingFrames);
-  if (values.count("--interpolate-root")) {
-    const std::string v = need("--interpolate-root");
-    if (v != "on" && v != "off") throw UsageError{"--interpolate-root must be on or off, got '" + v + "'"};
-    a.interpolate_root = v == "on";
-  }
+  const auto on_off = [&](const char* name) {
+    const std::string v = need(name);
+    if (v != "on" && v != "off") throw UsageError{std::string(name) + " must be on or off, got '" + v + "'"};
+    return v == "on";
+  };
+  if (values.count("--interpolate-root")) a.interpolate_root = on_off("--interpolate-root");
+  if (values.count("--foot-lock")) a.foot_lock = on_off("--foot-lock");
   if (values.count("--max-root-speed")) a.max_root_speed = number("--max-root-speed", 0.0, 1000.0);
   return a;
 }
@@ -347,6 +354,8 @@ int run(const Arguments& args) {
   const ardy::FeatureLayout& layout = package->layout();
   const size_t j = package->skeleton().joint_count();
   const double sigma = args.smoothing.value_or(package->sampling_defaults().output_smoothing_frames);
+  const ardy::FootLocker feet(package->skeleton(), layout, package->contact_joints());
+  ardy::FootLockState feet_state;
   Generated g;
   g.motion.joint_count = j;
   while (g.frame_count < wanted) {
@@ -359,6 +368,10 @@ int run(const Arguments& args) {
     g.features.insert(g.features.end(), shown.begin(), shown.end());
     ardy::Motion motion;
     ardy::features_to_motion(package->skeleton(), layout, shown.data(), keep, motion);
+    if (args.foot_lock) {
+      const float* goal_mask = window.goal_mask.empty() ? nullptr : window.goal_mask.data();
+      feet.apply(shown.data(), motion, feet_state, nullptr, goal_mask);
+    }
     const auto take = [&](const auto& from, auto& to) { to.insert(to.end(), from.begin(), from.end()); };
     take(motion.global_rotations, g.motion.global_rotations);
     take(motion.local_rotations, g.motion.local_rotations);

@@ -168,6 +168,7 @@ static void test_planner(ardy_model* model) {
   CHECK_CONTAINS(ardy_last_error(), "model is NULL");
   params = ardy_planner_default_params();
   CHECK(params.output_smoothing_frames < 0.0 && params.interpolate_root == -1 && params.max_root_speed == 6.0);
+  CHECK(params.foot_lock);
   params.output_smoothing_frames = 50.0;
   CHECK_STATUS(ardy_planner_create(model, &params, &planner), ARDY_ERROR_INVALID_ARGUMENT);
   CHECK_CONTAINS(ardy_last_error(), "output_smoothing_frames is 50");

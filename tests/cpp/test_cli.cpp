@@ -300,6 +300,9 @@ TEST_CASE("ardy-generate refuses bad arguments with exit code 2 and a message", 
   r = run_cli(base + " --seconds");
   CHECK(r.code == 2);
   CHECK_THAT(r.err, ContainsSubstring("--seconds needs a value"));
+  r = run_cli(base + " --seconds 1 --foot-lock maybe");
+  CHECK(r.code == 2);
+  CHECK_THAT(r.err, ContainsSubstring("--foot-lock must be on or off, got 'maybe'"));
   r = run_cli("--help");
   CHECK(r.code == 0);
   CHECK_THAT(r.out, ContainsSubstring("usage: ardy-generate"));

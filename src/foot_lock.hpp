@@ -1,0 +1,87 @@
+#pragma once
+
+// Foot locking on the frames the runtime shows (like the output filter,
+// never on what the model reads back as history). While the model marks a
+// foot as planted (its contact flags) and the ankle is near the ground, the
+// ankle stays where it landed, horizontally, by two-bone IK of the leg (hip
+// and knee rotations; the foot keeps its world orientation, so the toes
+// follow). When the foot lifts off it returns to the model's own path over
+// kFootReleaseFrames. The tokenizer's decoded feet slide (docs/evaluation:
+// foot skate is 2.8x the data's); this removes the slide the contact flags
+// see. Constraints win: a leg whose joints the window's goals constrain (a
+// keyframe, a foot target) is not held on those frames, and a held foot
+// starts its return kFootReleaseFrames before them. A skeleton without
+// two-bone legs above its contact joints has nothing to lock (available() is
+// false).
+
+#include <array>
+#include <cstddef>
+#include <vector>
+
+#include <glm/vec2.hpp>
+
+#include "features.hpp"
+#include "sampler.hpp"
+#include "skeleton.hpp"
+
+namespace ardy {
+
+// Frames over which a lifted foot returns from where it was held to the
+// model's path (smoothstep: it leaves at rest and arrives at the path's speed).
+constexpr size_t kFootReleaseFrames = 6;
+// A foot is planted when its strongest contact flag rises above kFootPlantFlag
+// and stays planted until it falls below kFootLiftFlag (no flicker).
+constexpr float kFootPlantFlag = 0.6f;
+// Frames over which a landing foot eases from the model's path into the hold.
+constexpr size_t kFootPlantFrames = 3;
+constexpr float kFootLiftFlag = 0.4f;
+// Above this ankle height (m) a foot is never held, whatever its flags say.
+constexpr float kFootLockHeight = 0.2f;
+// A held ankle further than this (m) from the model's own is let go (the
+// body has moved on: a root target dragged it, say).
+constexpr float kFootLockMaxPull = 0.25f;
+
+// What carries over from one shown frame to the next, per leg.
+struct FootLockState {
+  struct Leg {
+    bool planted = false;
+    glm::vec2 pin{0.0f};           // where the ankle is held (x, z)
+    size_t release_left = 0;       // frames of the return to the model's path still to go
+    glm::vec2 release_from{0.0f};  // where the return started
+    bool let_go = false;           // pulled too far: not held again until the flags drop
+    size_t held = 0;               // frames held so far (the hold eases in)
+  };
+  std::array<Leg, 2> legs;
+};
+
+class FootLocker {
+ public:
+  // The legs: each contact joint whose parent is not a contact joint is an
+  // ankle (its flags: its own and its children's), with its parent (knee)
+  // and grandparent (hip) above it.
+  FootLocker(const Skeleton& skeleton, const FeatureLayout& layout, const std::vector<std::string>& contact_joints);
+  bool available() const { return available_; }
+
+  // Locks the feet in `motion` (all its frames; world rotations, local
+  // rotations and positions are updated), reading the contact flags and
+  // heading of the same frames' world features [frame_count, M]. `state` is
+  // the state after the frame before the first; it becomes the state after
+  // the last. `per_frame` (optional) receives the state after each frame.
+  // `goal_mask` (optional, [at least frame_count, M], the window's goal mask
+  // frame by frame): where the leg's joints are constrained.
+  void apply(const float* features, Motion& motion, FootLockState& state,
+             std::vector<FootLockState>* per_frame = nullptr, const float* goal_mask = nullptr) const;
+
+ private:
+  struct LegJoints {
+    size_t hip = 0, knee = 0, ankle = 0;
+    std::vector<size_t> flags;     // contact flag indices of this foot
+    std::vector<size_t> features;  // position and rotation features of the leg's joints (goal mask entries)
+  };
+  const Skeleton& skeleton_;
+  const FeatureLayout& layout_;
+  std::vector<LegJoints> legs_;  // at most 2
+  bool available_ = false;
+};
+
+}  // namespace ardy
