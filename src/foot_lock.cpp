@@ -84,11 +84,13 @@ void FootLocker::apply(const float* features, Motion& motion, FootLockState& sta
                         !constrained_soon(leg, f);
       if (!down) s.let_go = false;
       if (down && !s.planted && !s.let_go) {
-        // Landing: held where it is shown now (mid-return too: no jump).
-        s.pin = s.release_left > 0 ? returning() : own;
+        // Landing: held where it is shown now. Mid-return it is already off
+        // the model's path, at the pin: no easing in.
+        const bool returning_now = s.release_left > 0;
+        s.pin = returning_now ? returning() : own;
         s.planted = true;
         s.release_left = 0;
-        s.held = 0;
+        s.held = returning_now ? kFootPlantFrames : 0;
       } else if (!down && s.planted) {
         release();
       }

@@ -178,6 +178,16 @@ TEST_CASE("flags wavering around one half do not make a held foot flicker", "[fo
   std::vector<FootLockState> states;
   locker.apply(features.data(), locked, state, &states);
   for (const FootLockState& s : states) CHECK(s.legs[0].planted);
+  // Lifted for two frames, then planted again mid-return: held where it is
+  // shown, without stepping back toward the model's path.
+  const std::vector<float> again = gliding(16, 0.4, [](size_t f) { return f == 8 || f == 9 ? 0.0f : 1.0f; });
+  Motion replanted = motion_of(again);
+  FootLockState fresh;
+  locker.apply(again.data(), replanted, fresh);
+  for (size_t f = 1; f < 16; ++f) {
+    INFO("frame " << f);
+    CHECK(glm::length(joint(replanted, f, "Foot_L") - joint(replanted, f - 1, "Foot_L")) < 0.05f);
+  }
   // A foot lifted high is never held, whatever its flags say.
   std::vector<float> high = gliding(8, 0.4, [](size_t) { return 1.0f; });
   for (size_t f = 0; f < 8; ++f) high[f * p.layout().feature_size + p.layout().root_position.start + 1] = 1.5f;
