@@ -781,6 +781,13 @@ bool Planner::work_due() const {
   return ahead < static_cast<double>(low_water_frames_.load());
 }
 
+const Planner::Segment* Planner::segment_before(int64_t frame) const {
+  for (auto it = segments_.rbegin(); it != segments_.rend(); ++it) {
+    if (it->start < frame) return &*it;
+  }
+  return nullptr;
+}
+
 Rollout Planner::rollout_at(int64_t frame) const {
   for (const Segment& s : segments_) {
     const int64_t end = s.start + static_cast<int64_t>(s.tokens) * patch_;
@@ -937,11 +944,9 @@ bool Planner::publish(int64_t start, bool splice, size_t tokens, Rollout before,
   if (smoothing_radius(smoothing_frames_) > 0) {
     const float* context = nullptr;
     size_t context_frames = 0;
-    for (auto it = segments_.rbegin(); it != segments_.rend(); ++it) {
-      if (it->start >= start) continue;
-      context = it->shown.empty() ? it->result->features.data() : it->shown.data();
-      context_frames = std::min(static_cast<size_t>(start - it->start), it->result->frame_count);
-      break;
+    if (const Segment* before_start = segment_before(start)) {
+      context = before_start->shown.empty() ? before_start->result->features.data() : before_start->shown.data();
+      context_frames = std::min(static_cast<size_t>(start - before_start->start), before_start->result->frame_count);
     }
     if (!context && start == 0 && !initial_shown_.empty()) {
       context = initial_shown_.data();
@@ -970,11 +975,9 @@ bool Planner::publish(int64_t start, bool splice, size_t tokens, Rollout before,
       motion = &filtered_motion;
     }
     FootLockState state;
-    for (auto it = segments_.rbegin(); it != segments_.rend(); ++it) {
-      if (it->start >= start) continue;
-      const auto at = static_cast<size_t>(start - 1 - it->start);
-      if (at < it->foot_states.size()) state = it->foot_states[at];
-      break;
+    if (const Segment* before_start = segment_before(start)) {
+      const auto at = static_cast<size_t>(start - 1 - before_start->start);
+      if (at < before_start->foot_states.size()) state = before_start->foot_states[at];
     }
     const float* goal_mask = result->goal_mask.empty() ? nullptr : result->goal_mask.data();
     foot_locker_->apply(shown, filtered_motion, state, &foot_states, goal_mask);

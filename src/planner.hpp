@@ -331,6 +331,8 @@ class Planner {
   bool publish(int64_t start, bool splice, size_t tokens, Rollout before, Rollout after,
                std::shared_ptr<const WindowResult> result, uint64_t window_id);
   Rollout rollout_at(int64_t frame) const;
+  // The last segment starting before `frame` (the one that shows frame - 1), or null.
+  const Segment* segment_before(int64_t frame) const;
   void report_error(const std::string& message);
   void record(const WindowRecord& record);
   double now() const;
