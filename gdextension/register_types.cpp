@@ -2,7 +2,9 @@
 // our classes at the scene level (and their help pages in the editor).
 #include "godot/class_db.hpp"
 #include "godot/error_macros.hpp"
+#include "nodes/model_cache.hpp"
 #include "nodes/motion_generator.hpp"
+#include "nodes/motion_pose_modifier.hpp"
 
 #include "doc_classes.gen.hpp"
 
@@ -15,6 +17,7 @@ namespace {
 void initialize(void *, GDExtensionInitializationLevel level) {
 	if (level == GDEXTENSION_INITIALIZATION_SCENE) {
 		ClassDB::register_class<ardy::MotionGenerator>();
+		ClassDB::register_class<ardy::MotionPoseModifier>();
 	}
 	if (level == GDEXTENSION_INITIALIZATION_EDITOR) {
 		for (const ardy_docs::DocClass &doc : ardy_docs::doc_classes) {
@@ -25,6 +28,7 @@ void initialize(void *, GDExtensionInitializationLevel level) {
 
 void deinitialize(void *, GDExtensionInitializationLevel level) {
 	if (level == GDEXTENSION_INITIALIZATION_SCENE) {
+		ardy::shut_down_model_loads();
 		ClassDB::unregister_all();
 	}
 }

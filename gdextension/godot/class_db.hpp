@@ -280,6 +280,14 @@ private:
 	static internal::ClassRecord *current_class_;
 };
 
+// A new engine object of class T (an engine class or one of ours), owned by
+// the caller as the engine's objects are: free it with queue_free() or add it
+// to the tree.
+template <class T>
+T *memnew_object() {
+	return object_from_owner<T>(internal::construct_engine_object(StringName(T::get_class_static())));
+}
+
 #define ADD_PROPERTY(m_info, m_setter, m_getter) ::godot::ClassDB::add_property(m_info, m_setter, m_getter)
 #define ADD_GROUP(m_name, m_prefix) ::godot::ClassDB::add_property_group(m_name, m_prefix)
 #define ADD_SIGNAL(m_info) ::godot::ClassDB::add_signal(m_info)
@@ -315,6 +323,17 @@ void Node::register_virtuals() {
 	if constexpr (!std::is_same_v<decltype(&T::_get_configuration_warnings), decltype(&Node::_get_configuration_warnings)>) {
 		ClassDB::bind_virtual("_get_configuration_warnings", [](GDExtensionClassInstancePtr p, const GDExtensionConstTypePtr *, GDExtensionTypePtr r_ret) {
 			write_ptr_return(static_cast<const T *>(static_cast<Wrapped *>(p))->_get_configuration_warnings(), r_ret);
+		});
+	}
+}
+
+// Registers the SkeletonModifier3D virtuals that T declares itself (and Node's).
+template <class T>
+void SkeletonModifier3D::register_virtuals() {
+	Node::register_virtuals<T>();
+	if constexpr (!std::is_same_v<decltype(&T::_process_modification_with_delta), decltype(&SkeletonModifier3D::_process_modification_with_delta)>) {
+		ClassDB::bind_virtual("_process_modification_with_delta", [](GDExtensionClassInstancePtr p, const GDExtensionConstTypePtr *args, GDExtensionTypePtr) {
+			static_cast<T *>(static_cast<Wrapped *>(p))->_process_modification_with_delta(*static_cast<const double *>(args[0]));
 		});
 	}
 }

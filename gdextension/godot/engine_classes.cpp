@@ -32,9 +32,15 @@ Wrapped *make_engine_wrapper(GDExtensionObjectPtr owner) {
 	};
 	static const Rung ladder[] = {
 		{ &Skeleton3D::get_class_tag, &make_wrapper<Skeleton3D> },
+		{ &SkeletonModifier3D::get_class_tag, &make_wrapper<SkeletonModifier3D> },
+		{ &CharacterBody3D::get_class_tag, &make_wrapper<CharacterBody3D> },
+		{ &Path3D::get_class_tag, &make_wrapper<Path3D> },
 		{ &Node3D::get_class_tag, &make_wrapper<Node3D> },
 		{ &Node::get_class_tag, &make_wrapper<Node> },
 		{ &FileAccess::get_class_tag, &make_wrapper<FileAccess> },
+		{ &Curve3D::get_class_tag, &make_wrapper<Curve3D> },
+		{ &BoneMap::get_class_tag, &make_wrapper<BoneMap> },
+		{ &Resource::get_class_tag, &make_wrapper<Resource> },
 		{ &RefCounted::get_class_tag, &make_wrapper<RefCounted> },
 		{ &Engine::get_class_tag, &make_wrapper<Engine> },
 	};
@@ -142,6 +148,102 @@ void Node::update_configuration_warnings() {
 
 void Node::set_process(bool enabled) {
 	call_engine<void>(ARDY_ENGINE_METHOD(Node, set_process), _owner, enabled);
+}
+
+void Node::set_physics_process(bool enabled) {
+	call_engine<void>(ARDY_ENGINE_METHOD(Node, set_physics_process), _owner, enabled);
+}
+
+void Node::add_child(Node *child, bool force_readable_name, InternalMode internal) {
+	call_engine<void>(ARDY_ENGINE_METHOD(Node, add_child), _owner, child, force_readable_name, static_cast<int64_t>(internal));
+}
+
+void Node::remove_child(Node *child) {
+	call_engine<void>(ARDY_ENGINE_METHOD(Node, remove_child), _owner, child);
+}
+
+void Node::queue_free() {
+	call_engine<void>(ARDY_ENGINE_METHOD(Node, queue_free), _owner);
+}
+
+Node *Node::get_parent() const {
+	return call_engine<Node *>(ARDY_ENGINE_METHOD(Node, get_parent), _owner);
+}
+
+Transform3D Node3D::get_global_transform() const {
+	return call_engine<Transform3D>(ARDY_ENGINE_METHOD(Node3D, get_global_transform), _owner);
+}
+
+void Node3D::set_global_transform(const Transform3D &transform) {
+	call_engine<void>(ARDY_ENGINE_METHOD(Node3D, set_global_transform), _owner, transform);
+}
+
+int32_t Skeleton3D::get_bone_parent(int32_t bone) const {
+	return call_engine<int32_t>(ARDY_ENGINE_METHOD(Skeleton3D, get_bone_parent), _owner, bone);
+}
+
+Vector3 Skeleton3D::get_bone_pose_position(int32_t bone) const {
+	return call_engine<Vector3>(ARDY_ENGINE_METHOD(Skeleton3D, get_bone_pose_position), _owner, bone);
+}
+
+void Skeleton3D::set_bone_pose_scale(int32_t bone, const Vector3 &scale) {
+	call_engine<void>(ARDY_ENGINE_METHOD(Skeleton3D, set_bone_pose_scale), _owner, bone, scale);
+}
+
+uint64_t Skeleton3D::get_version() const {
+	return call_engine<uint64_t>(ARDY_ENGINE_METHOD(Skeleton3D, get_version), _owner);
+}
+
+Skeleton3D *SkeletonModifier3D::get_skeleton() const {
+	return call_engine<Skeleton3D *>(ARDY_ENGINE_METHOD(SkeletonModifier3D, get_skeleton), _owner);
+}
+
+void SkeletonModifier3D::set_influence(double influence) {
+	call_engine<void>(ARDY_ENGINE_METHOD(SkeletonModifier3D, set_influence), _owner, influence);
+}
+
+double SkeletonModifier3D::get_influence() const {
+	return call_engine<double>(ARDY_ENGINE_METHOD(SkeletonModifier3D, get_influence), _owner);
+}
+
+void CharacterBody3D::set_velocity(const Vector3 &velocity) {
+	call_engine<void>(ARDY_ENGINE_METHOD(CharacterBody3D, set_velocity), _owner, velocity);
+}
+
+Vector3 CharacterBody3D::get_velocity() const {
+	return call_engine<Vector3>(ARDY_ENGINE_METHOD(CharacterBody3D, get_velocity), _owner);
+}
+
+bool CharacterBody3D::move_and_slide() {
+	return call_engine<bool>(ARDY_ENGINE_METHOD(CharacterBody3D, move_and_slide), _owner);
+}
+
+bool CharacterBody3D::is_on_floor() const {
+	return call_engine<bool>(ARDY_ENGINE_METHOD(CharacterBody3D, is_on_floor), _owner);
+}
+
+Vector3 CharacterBody3D::get_gravity() const {
+	return call_engine<Vector3>(ARDY_ENGINE_METHOD(PhysicsBody3D, get_gravity), _owner);
+}
+
+PackedVector3Array Curve3D::get_baked_points() const {
+	return call_engine<PackedVector3Array>(ARDY_ENGINE_METHOD(Curve3D, get_baked_points), _owner);
+}
+
+Ref<Curve3D> Path3D::get_curve() const {
+	return call_engine<Ref<Curve3D>>(ARDY_ENGINE_METHOD(Path3D, get_curve), _owner);
+}
+
+StringName BoneMap::get_skeleton_bone_name(const StringName &profile_bone) const {
+	return call_engine<StringName>(ARDY_ENGINE_METHOD(BoneMap, get_skeleton_bone_name), _owner, profile_bone);
+}
+
+Object *object_from_instance_id(uint64_t id) {
+	if (id == 0) {
+		return nullptr;
+	}
+	GDExtensionObjectPtr object = gde.object_get_instance_from_id(id);
+	return object != nullptr ? static_cast<Object *>(internal::wrapper_of(object)) : nullptr;
 }
 
 int32_t Skeleton3D::find_bone(const String &name) const {

@@ -16,6 +16,10 @@ public:
 	bool unreference();
 };
 
+class Resource : public RefCounted {
+	GDENGINECLASS(Resource, RefCounted)
+};
+
 class Node : public Object {
 	GDENGINECLASS(Node, Object)
 
@@ -26,10 +30,21 @@ public:
 		NOTIFICATION_READY = 13,
 	};
 
+	enum InternalMode {
+		INTERNAL_MODE_DISABLED = 0,
+		INTERNAL_MODE_FRONT = 1,
+		INTERNAL_MODE_BACK = 2,
+	};
+
 	Node *get_node_or_null(const NodePath &path) const;
 	bool is_inside_tree() const;
 	void update_configuration_warnings();
 	void set_process(bool enabled);
+	void set_physics_process(bool enabled);
+	void add_child(Node *child, bool force_readable_name = false, InternalMode internal = INTERNAL_MODE_DISABLED);
+	void remove_child(Node *child);
+	Node *get_parent() const;
+	void queue_free();
 
 	// Virtual overrides: a class that declares one of these is registered for
 	// it (see Node::register_virtuals).
@@ -46,6 +61,10 @@ public:
 
 class Node3D : public Node {
 	GDENGINECLASS(Node3D, Node)
+
+public:
+	Transform3D get_global_transform() const;
+	void set_global_transform(const Transform3D &transform);
 };
 
 class Skeleton3D : public Node3D {
@@ -59,6 +78,60 @@ public:
 	void set_bone_pose_position(int32_t bone, const Vector3 &position);
 	Quaternion get_bone_pose_rotation(int32_t bone) const;
 	Transform3D get_bone_rest(int32_t bone) const;
+	int32_t get_bone_parent(int32_t bone) const;
+	Vector3 get_bone_pose_position(int32_t bone) const;
+	void set_bone_pose_scale(int32_t bone, const Vector3 &scale);
+	// Changes whenever bones are added, removed or re-parented.
+	uint64_t get_version() const;
+};
+
+// Godot 4.3+ runtime pose writers: they run in the skeleton's update, after
+// AnimationMixer, blended by `influence`.
+class SkeletonModifier3D : public Node3D {
+	GDENGINECLASS(SkeletonModifier3D, Node3D)
+
+public:
+	Skeleton3D *get_skeleton() const;
+	void set_influence(double influence);
+	double get_influence() const;
+
+	void _process_modification_with_delta(double) {}
+
+	template <class T>
+	static void register_virtuals();
+};
+
+class CharacterBody3D : public Node3D {
+	GDENGINECLASS(CharacterBody3D, Node3D)
+
+public:
+	void set_velocity(const Vector3 &velocity);
+	Vector3 get_velocity() const;
+	bool move_and_slide();
+	bool is_on_floor() const;
+	// PhysicsBody3D.get_gravity: the gravity acting on the body (areas included).
+	Vector3 get_gravity() const;
+};
+
+class Curve3D : public Resource {
+	GDENGINECLASS(Curve3D, Resource)
+
+public:
+	PackedVector3Array get_baked_points() const;
+};
+
+class Path3D : public Node3D {
+	GDENGINECLASS(Path3D, Node3D)
+
+public:
+	Ref<Curve3D> get_curve() const;
+};
+
+class BoneMap : public Resource {
+	GDENGINECLASS(BoneMap, Resource)
+
+public:
+	StringName get_skeleton_bone_name(const StringName &profile_bone) const;
 };
 
 class FileAccess : public RefCounted {
@@ -83,6 +156,9 @@ public:
 	static Engine *get_singleton();
 	bool is_editor_hint() const;
 };
+
+// The live object with this instance id, or nullptr once it is freed.
+Object *object_from_instance_id(uint64_t id);
 
 // Godot's error_string(): "File not found", ...
 String error_string(Error error);

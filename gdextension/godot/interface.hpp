@@ -38,6 +38,7 @@ namespace godot::internal {
 	X(object_method_bind_call, ObjectMethodBindCall, "object_method_bind_call")                  \
 	X(object_method_bind_ptrcall, ObjectMethodBindPtrcall, "object_method_bind_ptrcall")         \
 	X(object_destroy, ObjectDestroy, "object_destroy")                                           \
+	X(object_get_instance_from_id, ObjectGetInstanceFromId, "object_get_instance_from_id")      \
 	X(global_get_singleton, GlobalGetSingleton, "global_get_singleton")                          \
 	X(object_get_instance_binding, ObjectGetInstanceBinding, "object_get_instance_binding")      \
 	X(object_set_instance_binding, ObjectSetInstanceBinding, "object_set_instance_binding")      \

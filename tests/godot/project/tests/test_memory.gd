@@ -1,9 +1,10 @@
 extends TestCase
-## Creating and freeing many nodes, and loading models again and again, must
+## Creating and freeing many nodes, and swapping models again and again, must
 ## leave the engine's tracked memory and object count where they were.
 
 const NODES := 5000
-const LOADS := 200
+const SWAPS := 200
+const MODEL_FOLDER := "res://fixtures/model"
 
 
 func test_create_and_free_5000_nodes_keeps_memory_flat() -> void:
@@ -23,17 +24,31 @@ func test_create_and_free_5000_nodes_keeps_memory_flat() -> void:
 	check_eq(objects_after, objects_before, "object count")
 
 
-func test_repeated_model_loads_keep_memory_flat() -> void:
+func test_model_swaps_keep_memory_flat() -> void:
 	var generator := MotionGenerator.new()
-	generator.load_model("res://fixtures/mlp.onnx")
+	generator.playing = true
+	tree.root.add_child(generator)
+	var loads := [0]
+	generator.model_loaded.connect(func() -> void: loads[0] += 1)
+	# Two paths to the same package, so every swap is a real load.
+	for i in 10:
+		await _swap(generator, loads, i)
 	var memory_before := OS.get_static_memory_usage()
-	for i in LOADS:
-		generator.load_model("res://fixtures/mlp.onnx")
-		generator.load_model("res://fixtures/missing.onnx")
+	for i in SWAPS:
+		await _swap(generator, loads, i)
 	var growth := OS.get_static_memory_usage() - memory_before
-	print("  %d loads: tracked memory %+d bytes" % [LOADS, growth])
-	check(growth < 8 * 1024, "tracked memory grew by %d bytes over %d loads" % [growth, LOADS])
+	print("  %d model swaps: tracked memory %+d bytes" % [SWAPS, growth])
+	check_eq(loads[0], SWAPS + 10, "every swap loaded")
+	check(growth < 8 * 1024, "tracked memory grew by %d bytes over %d swaps" % [growth, SWAPS])
 	generator.free()
+
+
+func _swap(generator: MotionGenerator, loads: Array, i: int) -> void:
+	var before: int = loads[0]
+	generator.model_path = MODEL_FOLDER if i % 2 == 0 else MODEL_FOLDER + "/"
+	var deadline := Time.get_ticks_msec() + 30000
+	while loads[0] == before and Time.get_ticks_msec() < deadline:
+		await tree.process_frame
 
 
 func _churn(count: int) -> void:
@@ -46,10 +61,10 @@ func _churn(count: int) -> void:
 	for i in count:
 		var generator := MotionGenerator.new()
 		generator.prompt = "walk %d" % i
-		generator.model_path = "res://fixtures/model"
+		generator.model_path = MODEL_FOLDER
 		parent.add_child(generator)
 		generator.skeleton = NodePath("../Skeleton3D")
-		generator.apply_joint_rotations({"Hips": Quaternion(Vector3.UP, 0.001 * i)})
+		generator.add_waypoint(Vector3(i, 0, 1), 1.0)
 		parent.remove_child(generator)
 		generator.free()
 	parent.free()

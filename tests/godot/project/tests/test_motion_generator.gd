@@ -1,21 +1,21 @@
 extends TestCase
 ## MotionGenerator through the real engine: creation, properties, scenes,
-## default arguments, signals, bones and model loading failures.
+## default arguments, signals and model loading (in the background), with
+## its failures.
 
-const GRAPH := "res://fixtures/mlp.onnx"
 const MODEL_FOLDER := "res://fixtures/model"
-const PACKAGE_GRAPHS := ["decoder.onnx", "denoiser.onnx", "encoder.onnx", "text_encoder.onnx"]
+const DEFAULT_MODEL := "res://addons/ardy/models/default"
 
 
 func test_instanced_from_gdscript() -> void:
 	var generator := MotionGenerator.new()
 	check_eq(generator.get_class(), "MotionGenerator", "class")
 	check(generator is Node3D, "a MotionGenerator is a Node3D")
-	check_eq(generator.model_path, "", "default model_path")
+	check_eq(generator.model_path, DEFAULT_MODEL, "default model_path")
 	check_eq(generator.skeleton, NodePath(), "default skeleton")
 	check_eq(generator.prompt, "", "default prompt")
 	check_eq(generator.playing, false, "default playing")
-	check_eq(generator.is_model_loaded(), false, "no model before load_model")
+	check_eq(generator.is_model_loaded(), false, "nothing loads before the node is playing in the tree")
 	generator.free()
 
 
@@ -27,11 +27,13 @@ func test_instanced_from_scene_and_ready_loads_model() -> void:
 	check_eq(generator.skeleton, NodePath("../Skeleton3D"), "skeleton from .tscn")
 	check_eq(generator.model_path, MODEL_FOLDER, "model_path from .tscn")
 	check_eq(generator.playing, true, "playing from .tscn")
+	var loaded := [false]
+	generator.model_loaded.connect(func() -> void: loaded[0] = true)
 	tree.root.add_child(character)
-	await tree.process_frame
-	# _ready (a virtual override) loads model_path because playing is on.
-	check(generator.is_model_loaded(), "_ready loaded the model: " + generator.get_last_error())
-	check_eq(generator.get_loaded_graphs(), PACKAGE_GRAPHS, "graphs of the package")
+	check(not generator.is_model_loaded(), "loading happens in the background, not in _ready")
+	# _ready (a virtual override) starts loading model_path because playing is on.
+	check(await _wait_for(func() -> bool: return loaded[0]), "model_loaded was emitted")
+	check(generator.is_model_loaded(), "the model loaded: " + generator.get_last_error())
 	check_eq(generator.get_joint_names().size(), 21, "the package's skeleton")
 	character.free()
 
@@ -97,155 +99,99 @@ func test_property_list_has_hints_and_groups() -> void:
 	check_eq(found["skeleton"]["hint_string"], "Skeleton3D", "skeleton accepts Skeleton3D")
 	check_eq(found["prompt"]["hint"], PROPERTY_HINT_MULTILINE_TEXT, "prompt is multiline")
 	check_eq(found["playing"]["type"], TYPE_BOOL, "playing is a bool")
-	for group in ["Model", "Target", "Generation"]:
+	check_eq(found["bone_map"]["hint_string"], "BoneMap", "bone_map takes a BoneMap")
+	check_eq(found["influence"]["hint"], PROPERTY_HINT_RANGE, "influence is a range")
+	check_eq(found["target_velocity"]["type"], TYPE_VECTOR3, "target_velocity is a Vector3")
+	for group in ["Model", "Target", "Generation", "Sampling", "Streaming", "Editor"]:
 		check(group in groups, "group " + group)
 	generator.free()
 
 
-func test_default_argument_from_typed_gdscript() -> void:
+func test_default_arguments_from_typed_and_untyped_gdscript() -> void:
 	var generator: MotionGenerator = MotionGenerator.new()
-	generator.model_path = GRAPH
-	var loaded: bool = generator.load_model()
-	check(
-		loaded, "load_model() with the default path loads model_path: " + generator.get_last_error()
-	)
-	var explicit: bool = generator.load_model(MODEL_FOLDER)
-	check(explicit, "load_model(path) with a folder")
+	var untyped = generator
+	var messages: Array[String] = []
+	generator.generation_failed.connect(func(message: String) -> void: messages.append(message))
+	# heading defaults to NAN (no heading): the call is valid and queued.
+	generator.add_waypoint(Vector3(1, 0, 2), 1.0)
+	untyped.add_waypoint(Vector3(2, 0, 2), 2.0)
+	untyped.call("add_waypoint", Vector3(3, 0, 2), 3.0)
+	generator.callv("add_waypoint", [Vector3(4, 0, 2), 4.0, 0.5])
+	check_eq(messages.size(), 0, "no failure: " + str(messages))
+	# position and rotation default to null: a target with neither is refused by name.
+	generator.add_joint_target("Hand_R", 1.0)
+	check_eq(messages.size(), 1, "one failure")
+	check(generator.get_last_error().contains("add_joint_target"), generator.get_last_error())
 	generator.free()
 
 
-func test_default_argument_from_untyped_gdscript() -> void:
-	var generator = MotionGenerator.new()
-	generator.model_path = GRAPH
-	var loaded = generator.load_model()
-	check_eq(loaded, true, "untyped load_model()")
-	check_eq(generator.call("load_model"), true, "call('load_model')")
-	check_eq(generator.callv("load_model", [GRAPH]), true, "callv with the argument")
-	check_eq(generator.get_loaded_graphs(), PackedStringArray(["mlp.onnx"]), "graph name")
-	generator.free()
-
-
-func test_signal_reaches_gdscript() -> void:
+func test_bad_inputs_are_reported_once_and_change_nothing() -> void:
 	var generator := MotionGenerator.new()
 	var messages: Array[String] = []
 	generator.generation_failed.connect(func(message: String) -> void: messages.append(message))
-	var loaded_paths: Array[String] = []
-	generator.model_loaded.connect(func(path: String) -> void: loaded_paths.append(path))
-	generator.load_model("res://fixtures/missing.onnx")
-	check_eq(messages.size(), 1, "one generation_failed")
-	if messages.size() == 1:
-		check(messages[0].contains("missing.onnx"), "the message names the file: " + messages[0])
-	generator.load_model(GRAPH)
-	check_eq(loaded_paths, [GRAPH] as Array[String], "model_loaded carries the path")
+	generator.prompt = "walk"
+	generator.prompt = "x".repeat(5000)
+	check_eq(generator.prompt, "walk", "an over-long prompt leaves the prompt")
+	generator.add_waypoint(Vector3(NAN, 0, 1), 1.0)
+	generator.add_waypoint(Vector3(INF, 0, 1), 1.0)
+	generator.add_waypoint(Vector3(1, 0, 1), -1.0)
+	generator.queue_prompt("", 1.0)
+	generator.queue_prompt("run", NAN)
+	generator.set_path(PackedVector3Array([Vector3.ZERO]), 1.0)
+	generator.set_path(PackedVector3Array([Vector3.ZERO, Vector3.ONE]), 0.0)
+	generator.set_path(42, 1.0)
+	generator.steps = -3
+	generator.history_seconds = 100.0
+	generator.target_velocity = Vector3(NAN, 0, 0)
+	check_eq(messages.size(), 12, "one message per bad input: " + "\n".join(messages))
+	var expected := [
+		"prompt",
+		"position",
+		"position",
+		"in the past",
+		"queue_prompt",
+		"at_seconds",
+		"at least 2",
+		"speed",
+		"Curve3D",
+		"steps",
+		"history_seconds",
+		"target_velocity",
+	]
+	for i in mini(messages.size(), expected.size()):
+		check(messages[i].contains(expected[i]), "message %d names %s: %s" % [i, expected[i], messages[i]])
+	check_eq(generator.steps, 0, "steps unchanged")
+	check_eq(generator.history_seconds, 4.0, "history_seconds unchanged")
+	check_eq(generator.target_velocity, Vector3.ZERO, "target_velocity unchanged")
 	generator.free()
 
 
-func test_bone_moved_through_engine_method() -> void:
-	var root := Node3D.new()
-	var skeleton := Skeleton3D.new()
-	skeleton.name = "Skeleton3D"
-	skeleton.add_bone("Hips")
-	skeleton.add_bone("Spine")
-	skeleton.set_bone_parent(1, 0)
-	root.add_child(skeleton)
+func test_missing_model_fails_once_with_the_path() -> void:
 	var generator := MotionGenerator.new()
-	root.add_child(generator)
-	generator.skeleton = NodePath("../Skeleton3D")
-	tree.root.add_child(root)
 	var messages: Array[String] = []
 	generator.generation_failed.connect(func(message: String) -> void: messages.append(message))
-
-	var turn := Quaternion(Vector3.UP, 0.7)
-	var bend := Quaternion(Vector3.RIGHT, -0.3)
-	var applied := generator.apply_joint_rotations({"Hips": turn, &"Spine": bend, "Tail": turn})
-	check_eq(applied, 2, "two known bones set")
-	check(
-		skeleton.get_bone_pose_rotation(0).is_equal_approx(turn),
-		"Hips rotated: %s" % skeleton.get_bone_pose_rotation(0)
-	)
-	check(
-		skeleton.get_bone_pose_rotation(1).is_equal_approx(bend),
-		"Spine rotated: %s" % skeleton.get_bone_pose_rotation(1)
-	)
-	check_eq(messages.size(), 1, "the unknown bone is reported")
-	if messages.size() == 1:
-		check(messages[0].contains("Tail"), "the report names the bone: " + messages[0])
-	root.free()
-
-
-func test_bones_without_skeleton_report_clearly() -> void:
-	var generator := MotionGenerator.new()
+	generator.model_path = "res://fixtures/no_such_folder"
+	generator.playing = true
 	tree.root.add_child(generator)
-	generator.skeleton = NodePath("../Nothing")
-	check_eq(generator.apply_joint_rotations({"Hips": Quaternion()}), 0, "nothing applied")
-	check(generator.get_last_error().contains("Skeleton3D"), "error: " + generator.get_last_error())
-	generator.free()
-
-
-func test_shipped_default_model_loads() -> void:
-	var generator := MotionGenerator.new()
-	var loaded := generator.load_model("res://addons/ardy/models/default")
-	check(loaded, "the shipped model loads: " + generator.get_last_error())
-	check_eq(generator.get_loaded_graphs(), PackedStringArray(PACKAGE_GRAPHS), "its graphs")
-	var joints := generator.get_joint_names()
-	check_eq(joints.size(), 21, "21 joints")
-	check(joints.has("Hand_L") and joints.has("Toes_R"), "joint names: " + str(joints))
-	generator.free()
-
-
-func test_missing_model_gives_clear_error() -> void:
-	var generator := MotionGenerator.new()
-	var messages: Array[String] = []
-	generator.generation_failed.connect(func(message: String) -> void: messages.append(message))
-	check_eq(generator.load_model("res://fixtures/nowhere/graph.onnx"), false, "missing file")
-	check(
-		generator.get_last_error().contains("res://fixtures/nowhere/graph.onnx"),
-		generator.get_last_error()
-	)
-	check(
-		generator.get_last_error().contains("not found"),
-		"says not found: " + generator.get_last_error()
-	)
-	check_eq(generator.load_model("res://fixtures/no_such_folder"), false, "missing folder")
+	check(await _wait_for(func() -> bool: return messages.size() > 0), "generation_failed came")
+	for i in 10:
+		await tree.process_frame
+	check_eq(messages.size(), 1, "reported once, not every frame")
 	check(generator.get_last_error().contains("no_such_folder"), generator.get_last_error())
-	check_eq(generator.load_model(""), false, "no path at all")
-	check(generator.get_last_error().contains("model_path is empty"), generator.get_last_error())
-	check_eq(messages.size(), 3, "one signal per failure")
-	check_eq(generator.is_model_loaded(), false, "nothing loaded")
+	check(not generator.is_model_loaded(), "nothing loaded")
 	generator.free()
 
 
-func test_malformed_model_gives_clear_error_and_keeps_previous() -> void:
+func test_bad_model_keeps_the_previous_one() -> void:
 	var generator := MotionGenerator.new()
-	check(generator.load_model(GRAPH), "a good model first")
-	var bad := FileAccess.open("user://malformed.onnx", FileAccess.WRITE)
-	bad.store_string("this is not a protobuf graph at all")
-	bad.close()
-	var empty := FileAccess.open("user://empty.onnx", FileAccess.WRITE)
-	empty.close()
 	var messages: Array[String] = []
 	generator.generation_failed.connect(func(message: String) -> void: messages.append(message))
-
-	check_eq(generator.load_model("user://malformed.onnx"), false, "malformed graph refused")
-	check(
-		generator.get_last_error().contains("malformed.onnx"),
-		"names the file: " + generator.get_last_error()
-	)
-	check_eq(generator.load_model("user://empty.onnx"), false, "empty graph refused")
-	check(generator.get_last_error().contains("empty"), "says empty: " + generator.get_last_error())
-	check_eq(messages.size(), 2, "a signal per failure")
-	check(generator.is_model_loaded(), "the previous model stays loaded")
-	check_eq(generator.get_loaded_graphs(), PackedStringArray(["mlp.onnx"]), "previous graphs kept")
-	check(generator.load_model(GRAPH), "still usable after failures")
-	check_eq(generator.get_last_error(), "", "success clears the error")
-	generator.free()
-
-
-func test_model_package_loads_and_is_validated() -> void:
-	var generator := MotionGenerator.new()
-	check(generator.load_model(MODEL_FOLDER), "the package loads: " + generator.get_last_error())
-	check_eq(generator.get_joint_names()[0], "Hips", "first joint")
-	check(generator.get_joint_names().has("Hand_R"), "joints by name")
+	var loads := [0]
+	generator.model_loaded.connect(func() -> void: loads[0] += 1)
+	generator.model_path = MODEL_FOLDER
+	generator.playing = true
+	tree.root.add_child(generator)
+	check(await _wait_for(func() -> bool: return loads[0] == 1), "the good package loads")
 	# A copy of the package with a broken model.json is refused with the field named.
 	var broken := "user://broken_package"
 	DirAccess.make_dir_recursive_absolute(broken)
@@ -258,10 +204,21 @@ func test_model_package_loads_and_is_validated() -> void:
 		else:
 			copy.store_buffer(bytes)
 		copy.close()
-	check_eq(generator.load_model(broken), false, "a wrong token_dim is refused")
+	generator.model_path = broken
+	check(await _wait_for(func() -> bool: return messages.size() == 1), "the broken package fails")
 	check(generator.get_last_error().contains("tokens.token_dim"), generator.get_last_error())
-	check_eq(generator.get_loaded_graphs(), PACKAGE_GRAPHS, "the good package stays loaded")
+	check(generator.is_model_loaded(), "the good package stays loaded")
+	check_eq(generator.get_joint_names().size(), 21, "and its skeleton")
 	# A folder without model.json says so.
-	check_eq(generator.load_model("res://scenes"), false, "no package in res://scenes")
+	generator.model_path = "res://scenes"
+	check(await _wait_for(func() -> bool: return messages.size() == 2), "no package in res://scenes")
 	check(generator.get_last_error().contains("model.json"), generator.get_last_error())
+	check(generator.is_model_loaded(), "still the good package")
 	generator.free()
+
+
+func _wait_for(condition: Callable, timeout_seconds := 60.0) -> bool:
+	var deadline := Time.get_ticks_msec() + int(timeout_seconds * 1000.0)
+	while not condition.call() and Time.get_ticks_msec() < deadline:
+		await tree.process_frame
+	return condition.call()

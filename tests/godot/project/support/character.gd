@@ -1,0 +1,70 @@
+class_name TestCharacter
+extends RefCounted
+## One generated character for the engine tests: a rig, its MotionGenerator
+## and the bone positions it showed, recorded in world space every time the
+## skeleton finished its update (after the generator's pose modifier ran).
+
+const MODEL := "res://addons/ardy/models/default"
+
+var root: Node3D
+var skeleton: Skeleton3D
+var generator: MotionGenerator
+## One entry per skeleton update: {"time": motion clock, "bones": {name: Vector3}}.
+var samples: Array[Dictionary] = []
+var watched: PackedStringArray = ["Hips", "Hand_R", "UpperArm_R", "Head"]
+
+
+func _init(rig: Skeleton3D = null, parent: Node = null) -> void:
+	root = Node3D.new()
+	root.name = "Character"
+	skeleton = rig if rig != null else TestRigs.model_rig(MODEL)
+	root.add_child(skeleton)
+	generator = MotionGenerator.new()
+	generator.name = "MotionGenerator"
+	root.add_child(generator)
+	generator.skeleton = NodePath("../" + skeleton.name)
+	skeleton.skeleton_updated.connect(_record)
+	if parent != null:
+		parent.add_child(root)
+
+
+func _record() -> void:
+	var bones := {}
+	for bone_name in watched:
+		var bone := skeleton.find_bone(bone_name)
+		if bone >= 0:
+			bones[bone_name] = skeleton.global_transform * skeleton.get_bone_global_pose(bone).origin
+	samples.append({"time": generator.get_time(), "bones": bones})
+
+
+## Waits (real frames) until the model is loaded and generation has started.
+func wait_until_generating(tree: SceneTree, timeout_seconds := 60.0) -> bool:
+	var deadline := Time.get_ticks_msec() + int(timeout_seconds * 1000.0)
+	while not generator.is_generating() and Time.get_ticks_msec() < deadline:
+		await tree.process_frame
+	return generator.is_generating()
+
+
+## Waits until the motion clock reaches `seconds` (or a real-time timeout).
+func wait_until_time(tree: SceneTree, seconds: float, timeout_seconds := 60.0) -> bool:
+	var deadline := Time.get_ticks_msec() + int(timeout_seconds * 1000.0)
+	while generator.get_time() < seconds and Time.get_ticks_msec() < deadline:
+		await tree.process_frame
+	return generator.get_time() >= seconds
+
+
+## The world position of a watched bone at the last sample at or before `seconds`.
+func position_at(bone_name: String, seconds: float) -> Vector3:
+	var found := Vector3.INF
+	for sample in samples:
+		if sample["time"] <= seconds and sample["bones"].has(bone_name):
+			found = sample["bones"][bone_name]
+	return found
+
+
+func last_position(bone_name: String) -> Vector3:
+	return samples.back()["bones"][bone_name] if not samples.is_empty() else Vector3.INF
+
+
+func dispose() -> void:
+	root.free()
