@@ -202,6 +202,10 @@ Planner::Planner(std::shared_ptr<const ModelPackage> package, PlannerConfig conf
   low_water_frames_.store(std::max<int64_t>(static_cast<int64_t>(std::ceil(config_.low_water_seconds * fps_)),
                                             latency_frames() + 2 + patch_));
   inbox_.reserve(16);
+  if (config_.prompt) {
+    with_context("Planner config: prompt", [&] { package_->text_encoder().normalize_prompt(*config_.prompt); });
+    inbox_.push_back(PromptCommand{0, true, *config_.prompt});
+  }
   low_signal_ = true;  // the queue is empty: the first window is due
   worker_ = std::thread([this] { worker_main(); });
 }

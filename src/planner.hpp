@@ -121,6 +121,10 @@ struct PlannerConfig {
   // context). Empty: the first window starts from nothing at start_xz.
   std::vector<float> initial_history;
   uint64_t seed = 0;                          // noise of the windows
+  // The prompt of the first window (set_prompt() right after construction
+  // races the first window; this does not): same seed, prompt and commands
+  // give the same motion.
+  std::optional<std::string> prompt;
   // Replan buffer and queue.
   size_t min_buffer_frames = 0;               // B is at least this many frames
   double initial_latency_seconds = 0.1;       // latency assumed before a window has been measured

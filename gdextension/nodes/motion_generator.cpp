@@ -24,6 +24,8 @@ constexpr size_t kLatencySamples = 64;
 // where the motion put it, at most this often.
 constexpr float kResubmitDrift = 0.1f;
 constexpr double kResubmitInterval = 0.25;
+// Height of a posed character's lowest joint (a toe) above the ground.
+constexpr float kGroundClearance = 0.03f;
 
 using Clock = std::chrono::steady_clock;
 
@@ -608,19 +610,47 @@ std::vector<glm::quat> MotionGenerator::rig_pose_of(const Variant &pose, const c
 	return rig_local;
 }
 
+Pose MotionGenerator::standing_pose(const Variant &pose, const char *what, std::optional<float> heading) const {
+	if (!package_ || !retargeter_) {
+		throw Error(std::string(what) + ": a pose needs the model and the rig to be ready (wait for model_loaded)");
+	}
+	Pose model_pose;
+	model_pose.local_rotations = retargeter_->capture(rig_pose_of(pose, what), frame_rotation());
+	glm::quat &hips = model_pose.local_rotations[0];
+	const glm::vec3 forward = hips * glm::vec3(0.0f, 0.0f, 1.0f);
+	const float pose_heading = std::atan2(forward.x, forward.z);
+	if (heading) {
+		hips = glm::normalize(glm::angleAxis(*heading - pose_heading, glm::vec3(0.0f, 1.0f, 0.0f)) * hips);
+	}
+	model_pose.heading = heading.value_or(pose_heading);
+	// Stand it on the ground: its lowest joint just above height 0.
+	std::vector<glm::mat3> local;
+	for (const glm::quat &rotation : model_pose.local_rotations) {
+		local.push_back(matrix_from_quat(rotation));
+	}
+	const GlobalPose global = forward_kinematics(package_->skeleton(), glm::vec3(0.0f), local);
+	float lowest = 0.0f;
+	for (const glm::vec3 &position : global.positions) {
+		lowest = std::min(lowest, position.y);
+	}
+	model_pose.root_position = glm::vec3(0.0f, kGroundClearance - lowest, 0.0f);
+	return model_pose;
+}
+
 void MotionGenerator::add_pose_keyframe(const Variant &pose, double at_seconds) {
 	try {
 		check_time(at_seconds, "add_pose_keyframe");
-		if (!planner_ || !retargeter_) {
+		if (!planner_) {
 			throw Error("add_pose_keyframe: nothing is generating yet (wait for model_loaded and set playing)");
 		}
+		// The body takes the pose; where the character stands and faces then stays its own.
+		Pose then;
+		const std::optional<float> heading = planner_->sample(at_seconds, then) ? std::optional<float>(then.heading) : std::nullopt;
+		const Pose model_pose = standing_pose(pose, "add_pose_keyframe", heading);
 		PoseKeyframe keyframe;
-		keyframe.local_rotations = retargeter_->capture(rig_pose_of(pose, "add_pose_keyframe"), frame_rotation());
 		keyframe.time = at_seconds;
-		Pose model_pose;
-		model_pose.local_rotations = keyframe.local_rotations;
 		keyframe.id = planner_->add_keyframe_pose(at_seconds, model_pose, false);
-		keyframes_.push_back(std::move(keyframe));
+		keyframes_.push_back(keyframe);
 	} catch (const std::exception &failure) {
 		fail(failure.what());
 	}
@@ -665,34 +695,21 @@ void MotionGenerator::reset(const Variant &pose) {
 	try {
 		std::vector<float> initial_history;
 		if (!pose.is_nil()) {
-			if (!package_ || !retargeter_) {
-				throw Error("reset: a pose needs the model and the rig to be ready (wait for model_loaded)");
-			}
 			// The pose, held still for one token, is the history the motion continues.
-			const std::vector<glm::quat> local = retargeter_->capture(rig_pose_of(pose, "reset"), frame_rotation());
-			std::vector<glm::mat3> local_matrices;
-			for (const glm::quat &rotation : local) {
-				local_matrices.push_back(matrix_from_quat(rotation));
-			}
+			const Pose model_pose = standing_pose(pose, "reset", std::nullopt);
 			const Skeleton &skeleton = package_->skeleton();
 			const FeatureLayout &layout = package_->layout();
-			MotionFrame frame;
-			const GlobalPose global = forward_kinematics(skeleton, glm::vec3(0.0f), local_matrices);
-			// Stand the pose on the ground: its lowest joint at height 0.
-			float lowest = 0.0f;
-			for (const glm::vec3 &position : global.positions) {
-				lowest = std::min(lowest, position.y);
+			std::vector<glm::mat3> local;
+			for (const glm::quat &rotation : model_pose.local_rotations) {
+				local.push_back(matrix_from_quat(rotation));
 			}
-			frame.root_position = glm::vec3(0.0f, -lowest, 0.0f);
+			const GlobalPose global = forward_kinematics(skeleton, model_pose.root_position, local);
+			MotionFrame frame;
+			frame.root_position = model_pose.root_position;
+			frame.heading_cos = std::cos(model_pose.heading);
+			frame.heading_sin = std::sin(model_pose.heading);
 			frame.rotations = global.rotations;
 			frame.positions = global.positions;
-			for (glm::vec3 &position : frame.positions) {
-				position.y -= lowest;
-			}
-			const glm::vec3 forward = global.rotations[0] * glm::vec3(0.0f, 0.0f, 1.0f);
-			const float heading = std::atan2(forward.x, forward.z);
-			frame.heading_cos = std::cos(heading);
-			frame.heading_sin = std::sin(heading);
 			frame.velocities.assign(skeleton.joint_count(), glm::vec3(0.0f));
 			frame.contacts.assign(layout.contact_count(), 1.0f);
 			const size_t frames = package_->tokens().patch;
@@ -858,6 +875,9 @@ PlannerConfig MotionGenerator::planner_config(const std::vector<float> &initial_
 	config.seed = static_cast<uint64_t>(seed_);
 	config.velocity_blend_seconds = velocity_blend_seconds_;
 	config.initial_history = initial_history;
+	if (!prompt_.is_empty()) {
+		config.prompt = text(prompt_);
+	}
 	if (shared_inference_ && model_) {
 		config.generator = model_->batched_generator();
 	}
@@ -871,10 +891,6 @@ bool MotionGenerator::start_planner(const std::vector<float> &initial_history) {
 	place_anchor();
 	try {
 		planner_ = std::make_unique<Planner>(package_, planner_config(initial_history));
-		const std::string prompt = text(prompt_);
-		if (!prompt.empty()) {
-			planner_->set_prompt(prompt);
-		}
 	} catch (const std::exception &failure) {
 		planner_.reset();
 		return fail(std::string("cannot start generating: ") + failure.what());

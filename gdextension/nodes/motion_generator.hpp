@@ -138,7 +138,6 @@ private:
 		Planner::ConstraintId id = 0;
 	};
 	struct PoseKeyframe {
-		std::vector<glm::quat> local_rotations;  // model joints
 		double time = 0.0;
 		Planner::ConstraintId id = 0;
 		bool reached = false;
@@ -175,6 +174,8 @@ private:
 	void report_planner();
 	void emit_reached_goals();
 	std::vector<glm::quat> rig_pose_of(const godot::Variant &pose, const char *what) const;
+	// A rig pose as the model's, standing on the ground, turned to `heading` when given.
+	Pose standing_pose(const godot::Variant &pose, const char *what, std::optional<float> heading) const;
 	glm::quat frame_rotation() const;
 	std::optional<std::string> model_joint_of(const godot::String &bone) const;
 	double check_time(double at_seconds, const char *what) const;

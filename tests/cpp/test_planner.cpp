@@ -903,6 +903,34 @@ TEST_CASE("a planner continues the motion it is given as initial history", "[pla
              ContainsSubstring("not a whole number of frames"));
 }
 
+TEST_CASE("the config's prompt is the first window's, so equal configs give equal motion", "[planner]") {
+  std::vector<std::vector<glm::vec3>> runs;
+  for (int run = 0; run < 2; ++run) {
+    PlannerConfig config;
+    config.prompt = "a person walks forward";
+    config.seed = 9;
+    Planner planner(tiny_package(), config);
+    REQUIRE(planner.wait_idle());
+    const std::vector<WindowRecord> log = planner.window_log();
+    REQUIRE(!log.empty());
+    CHECK(log.front().prompt == std::optional<std::string>("a person walks forward"));
+    CHECK(log.front().start_frame == 0);
+    Pose pose;
+    std::vector<glm::vec3> roots;
+    for (int64_t frame = 0; frame < 20; ++frame) {
+      REQUIRE(planner.frame_at(frame, pose));
+      roots.push_back(pose.root_position);
+    }
+    runs.push_back(roots);
+  }
+  for (size_t frame = 0; frame < runs[0].size(); ++frame) {
+    CHECK(glm::length(runs[0][frame] - runs[1][frame]) < 1e-5f);
+  }
+  PlannerConfig bad;
+  bad.prompt = std::string(5000, 'x');
+  CHECK_THAT(error_message([&] { Planner planner(tiny_package(), bad); }), ContainsSubstring("Planner config: prompt"));
+}
+
 // --- errors --------------------------------------------------------------------------------------
 
 TEST_CASE("malformed inputs give clear errors and leave the planner usable", "[planner][errors]") {

@@ -142,3 +142,144 @@ func test_target_velocity_steers_turns_and_runs() -> void:
 	print("  run at 2.5 m/s: %.2f m/s" % run.length())
 	check(absf(run.length() - 2.5) <= 0.625, "running at %.2f m/s, expected 2.5 +- 25 %%" % run.length())
 	character.dispose()
+
+
+## Joint positions relative to the hips, turned into the hips' heading frame.
+func _body_shape(bones: Dictionary, hips_basis: Basis) -> Dictionary:
+	var forward := hips_basis * Vector3(0, 0, 1)
+	var unturn := Basis(Vector3.UP, -atan2(forward.x, forward.z))
+	var shape := {}
+	for bone_name in bones:
+		shape[bone_name] = unturn * (bones[bone_name] - bones["Hips"])
+	return shape
+
+
+func test_pose_keyframe_and_hand_target_are_matched() -> void:
+	var character := await _start("stand still")
+	var generator := character.generator
+	var skeleton := character.skeleton
+	var all_bones: PackedStringArray = []
+	for bone in skeleton.get_bone_count():
+		all_bones.append(skeleton.get_bone_name(bone))
+	character.watched = all_bones
+	var hips_bases: Array[Basis] = []
+	skeleton.skeleton_updated.connect(
+		func() -> void: hips_bases.append(skeleton.get_bone_global_pose(0).basis)
+	)
+	# Hands up: both upper arms raised 70 degrees, forearms bent up.
+	var pose := {
+		"UpperArm_L": Quaternion(Vector3(0, 0, 1), deg_to_rad(70)),
+		"UpperArm_R": Quaternion(Vector3(0, 0, 1), deg_to_rad(-70)),
+		"LowerArm_L": Quaternion(Vector3(0, 0, 1), deg_to_rad(20)),
+		"LowerArm_R": Quaternion(Vector3(0, 0, 1), deg_to_rad(-20)),
+	}
+	var reached: Array[int] = []
+	generator.keyframe_reached.connect(func(index: int) -> void: reached.append(index))
+	generator.add_pose_keyframe(pose, 3.0)
+	check_eq(generator.get_last_error(), "", "the keyframe was accepted")
+	# The keyframe's own shape: the pose on a copy of the rig.
+	var copy := TestRigs.model_rig(TestCharacter.MODEL)
+	for bone_name in pose:
+		copy.set_bone_pose_rotation(copy.find_bone(bone_name), pose[bone_name])
+	var wanted := {}
+	for bone in copy.get_bone_count():
+		wanted[copy.get_bone_name(bone)] = copy.get_bone_global_pose(bone).origin
+	var wanted_shape := _body_shape(wanted, Basis())
+	copy.free()
+
+	check(await character.wait_until_time(tree, 3.05), "the clock passed 3 s")
+	var index := -1
+	for i in character.samples.size():
+		if character.samples[i]["time"] <= 3.0:
+			index = i
+	var shown := _body_shape(character.samples[index]["bones"], hips_bases[index])
+	var total := 0.0
+	for bone_name in wanted_shape:
+		total += (shown[bone_name] - wanted_shape[bone_name]).length()
+	var mean: float = total / wanted_shape.size()
+	print("  keyframe at 3 s: mean joint error %.3f m over %d joints" % [mean, wanted_shape.size()])
+	check(mean < 0.15, "mean joint error %.3f m at the keyframe, expected under 0.15 m" % mean)
+	check_eq(reached, [0] as Array[int], "keyframe_reached fired for keyframe 0")
+
+	# A right-hand target 0.35 m in front of the chest, at shoulder height, 2 s ahead.
+	var now := generator.get_time()
+	var hips := character.last_position("Hips")
+	var facing: Basis = hips_bases.back()
+	var forward := facing * Vector3(0, 0, 1)
+	forward = Vector3(forward.x, 0, forward.z).normalized()
+	var target := Vector3(hips.x, 0, hips.z) + forward * 0.35 + Vector3(0, 1.35, 0)
+	generator.add_joint_target("Hand_R", now + 2.0, target)
+	check_eq(generator.get_last_error(), "", "the hand target was accepted")
+	check(await character.wait_until_time(tree, now + 2.0), "the clock reached the target's time")
+	var hand := character.position_at("Hand_R", now + 2.0)
+	var miss := hand.distance_to(target)
+	print("  right-hand target: missed by %.3f m" % miss)
+	check(miss < 0.15, "the right hand missed its target by %.3f m, expected under 0.15 m" % miss)
+	character.dispose()
+
+
+func test_second_rig_gets_the_same_motion() -> void:
+	# The same seed and prompt on the model's own rig and on a humanoid rig
+	# with other proportions, Godot's humanoid names and rotated rests.
+	var reference := TestCharacter.new(null, tree.root)
+	var rig := TestRigs.humanoid_rig(TestCharacter.MODEL, 1.25, 0.9)
+	var other := TestCharacter.new(rig, tree.root)
+	var names := {}
+	for joint in TestRigs.HUMANOID_NAMES:
+		names[TestRigs.HUMANOID_NAMES[joint]] = joint
+	other.watched = PackedStringArray(names.keys())
+	reference.watched = PackedStringArray(names.values())
+	for character in [reference, other]:
+		character.generator.prompt = "walk forward"
+		character.generator.seed = 5
+		character.generator.playing = true
+	check(await other.wait_until_generating(tree), "the second rig generates")
+	check(await other.wait_until_time(tree, 2.0), "2 s on the second rig")
+	check(await reference.wait_until_time(tree, 2.0), "2 s on the reference rig")
+	check(
+		"".join(other.generator.get_joint_names()).length() > 0,
+		"the second rig's generator has the model's joints"
+	)
+	# Bone directions of the second rig against its own model motion: the
+	# reference rig carries the model's skeleton exactly.
+	var worst := 0.0
+	var compared := 0
+	var parents: Array = TestRigs.model_skeleton(TestCharacter.MODEL)["parents"]
+	var joints: Array = TestRigs.model_skeleton(TestCharacter.MODEL)["joints"]
+	var sample_other: Dictionary = other.samples.back()["bones"]
+	var time_other: float = other.samples.back()["time"]
+	var sample_reference: Dictionary = {}
+	for sample in reference.samples:
+		if sample["time"] <= time_other:
+			sample_reference = sample["bones"]
+	for i in joints.size():
+		var parent: int = parents[i]
+		if parent < 0:
+			continue
+		var child_name: String = joints[i]
+		var parent_name: String = joints[parent]
+		var a: Vector3 = (
+			sample_other[TestRigs.HUMANOID_NAMES[child_name]]
+			- sample_other[TestRigs.HUMANOID_NAMES[parent_name]]
+		)
+		var b: Vector3 = sample_reference[child_name] - sample_reference[parent_name]
+		if a.length() < 1e-4 or b.length() < 1e-4:
+			continue
+		worst = maxf(worst, rad_to_deg(a.angle_to(b)))
+		compared += 1
+	var height_other: float = sample_other["Hips"].y
+	var height_reference: float = sample_reference["Hips"].y
+	print(
+		(
+			"  second rig: %d bones, worst direction difference %.2f degrees, hips height %.3f vs %.3f (ratio %.3f)"
+			% [compared, worst, height_other, height_reference, height_other / height_reference]
+		)
+	)
+	check(compared == 20, "compared %d bones" % compared)
+	check(worst < 10.0, "bone directions differ by up to %.2f degrees, expected under 10" % worst)
+	check(
+		absf(height_other / height_reference - 1.25) < 0.02,
+		"hips height scaled by %.3f, expected the leg ratio 1.25" % (height_other / height_reference)
+	)
+	reference.dispose()
+	other.dispose()
