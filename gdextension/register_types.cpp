@@ -3,6 +3,7 @@
 #include "godot/class_db.hpp"
 #include "godot/error_macros.hpp"
 #include "nodes/model_cache.hpp"
+#include "nodes/motion_goals.hpp"
 #include "nodes/motion_generator.hpp"
 #include "nodes/motion_pose_modifier.hpp"
 
@@ -16,6 +17,8 @@ namespace {
 
 void initialize(void *, GDExtensionInitializationLevel level) {
 	if (level == GDEXTENSION_INITIALIZATION_SCENE) {
+		ClassDB::register_class<ardy::MotionWaypoint>();
+		ClassDB::register_class<ardy::MotionKeyframe>();
 		ClassDB::register_class<ardy::MotionGenerator>();
 		ClassDB::register_class<ardy::MotionPoseModifier>();
 	}

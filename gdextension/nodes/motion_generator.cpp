@@ -1,5 +1,6 @@
 #include "motion_generator.hpp"
 
+#include "motion_goals.hpp"
 #include "motion_pose_modifier.hpp"
 
 #include "godot/error_macros.hpp"
@@ -392,9 +393,59 @@ void MotionGenerator::add_waypoint(const Vector3 &position, double at_seconds, d
 			submit(waypoint);
 		}
 		waypoints_.push_back(waypoint);
+		MotionWaypoint *resource = memnew_object<MotionWaypoint>();
+		resource->set_position(position);
+		resource->set_time(at_seconds);
+		resource->set_use_heading(waypoint.heading.has_value());
+		resource->set_heading(waypoint.heading.value_or(0.0));
+		waypoint_resources_.push_back(Variant(resource));
 	} catch (const std::exception &failure) {
 		fail(failure.what());
 	}
+}
+
+void MotionGenerator::set_waypoints(const Array &waypoints) {
+	try {
+		std::vector<WorldWaypoint> list;
+		for (int64_t i = 0; i < waypoints.size(); ++i) {
+			auto *resource = object_from_owner<MotionWaypoint>(waypoints[i].object_ptr());
+			if (resource == nullptr) {
+				throw Error("waypoints: entry " + std::to_string(i) + " is not a MotionWaypoint");
+			}
+			const Vector3 position = resource->get_position();
+			if (!finite(position) || !std::isfinite(resource->get_time()) || !std::isfinite(resource->get_heading())) {
+				throw Error("waypoints: entry " + std::to_string(i) + " has a position, time or heading that is not finite");
+			}
+			WorldWaypoint waypoint;
+			waypoint.position = to_glm(position);
+			waypoint.time = resource->get_time();
+			if (resource->get_use_heading()) {
+				waypoint.heading = resource->get_heading();
+			}
+			list.push_back(waypoint);
+		}
+		if (planner_) {
+			for (const WorldWaypoint &waypoint : waypoints_) {
+				planner_->remove_constraint(waypoint.id);
+			}
+		}
+		waypoints_ = std::move(list);
+		waypoint_resources_ = waypoints;
+		if (planner_) {
+			const double now = get_time();
+			for (WorldWaypoint &waypoint : waypoints_) {
+				if (waypoint.time >= now) {
+					submit(waypoint);
+				}
+			}
+		}
+	} catch (const std::exception &failure) {
+		fail(failure.what());
+	}
+}
+
+Array MotionGenerator::get_waypoints() const {
+	return waypoint_resources_;
 }
 
 void MotionGenerator::clear_waypoints() {
@@ -407,6 +458,7 @@ void MotionGenerator::clear_waypoints() {
 		}
 	}
 	waypoints_.clear();
+	waypoint_resources_ = Array();
 	path_.reset();
 }
 
@@ -637,23 +689,88 @@ Pose MotionGenerator::standing_pose(const Variant &pose, const char *what, std::
 	return model_pose;
 }
 
+void MotionGenerator::submit(PoseKeyframe &keyframe) {
+	// The body takes the pose; where the character stands and faces then stays its own.
+	Pose then;
+	const std::optional<float> heading = planner_->sample(keyframe.time, then) ? std::optional<float>(then.heading) : std::nullopt;
+	const Pose model_pose = standing_pose(keyframe.pose, "add_pose_keyframe", heading);
+	keyframe.id = planner_->add_keyframe_pose(keyframe.time, model_pose, false);
+}
+
 void MotionGenerator::add_pose_keyframe(const Variant &pose, double at_seconds) {
 	try {
 		check_time(at_seconds, "add_pose_keyframe");
-		if (!planner_) {
-			throw Error("add_pose_keyframe: nothing is generating yet (wait for model_loaded and set playing)");
+		if (find_skeleton() == nullptr) {
+			throw Error("add_pose_keyframe: skeleton does not point to a Skeleton3D");
 		}
-		// The body takes the pose; where the character stands and faces then stays its own.
-		Pose then;
-		const std::optional<float> heading = planner_->sample(at_seconds, then) ? std::optional<float>(then.heading) : std::nullopt;
-		const Pose model_pose = standing_pose(pose, "add_pose_keyframe", heading);
+		// Kept as bone name -> rotation, as a MotionKeyframe saves it.
+		const std::vector<glm::quat> rig_local = rig_pose_of(pose, "add_pose_keyframe");
+		Skeleton3D *skeleton = find_skeleton();
+		Dictionary bones;
+		if (pose.get_type() == Variant::DICTIONARY) {
+			bones = pose;
+		} else {
+			for (size_t bone = 0; bone < rig_local.size(); ++bone) {
+				bones.set(skeleton->get_bone_name(static_cast<int32_t>(bone)), to_godot(rig_local[bone]));
+			}
+		}
 		PoseKeyframe keyframe;
 		keyframe.time = at_seconds;
-		keyframe.id = planner_->add_keyframe_pose(at_seconds, model_pose, false);
+		keyframe.pose = bones;
+		if (planner_ && retargeter_) {
+			submit(keyframe);
+		}
 		keyframes_.push_back(keyframe);
+		MotionKeyframe *resource = memnew_object<MotionKeyframe>();
+		resource->set_time(at_seconds);
+		resource->set_pose(bones);
+		keyframe_resources_.push_back(Variant(resource));
 	} catch (const std::exception &failure) {
 		fail(failure.what());
 	}
+}
+
+void MotionGenerator::set_keyframes(const Array &keyframes) {
+	try {
+		std::vector<PoseKeyframe> list;
+		for (int64_t i = 0; i < keyframes.size(); ++i) {
+			auto *resource = object_from_owner<MotionKeyframe>(keyframes[i].object_ptr());
+			if (resource == nullptr) {
+				throw Error("keyframes: entry " + std::to_string(i) + " is not a MotionKeyframe");
+			}
+			if (!std::isfinite(resource->get_time())) {
+				throw Error("keyframes: entry " + std::to_string(i) + " has a time that is not finite");
+			}
+			PoseKeyframe keyframe;
+			keyframe.time = resource->get_time();
+			keyframe.pose = resource->get_pose();
+			if (find_skeleton() != nullptr) {
+				rig_pose_of(keyframe.pose, "keyframes");  // names the bad bone now, not at play
+			}
+			list.push_back(keyframe);
+		}
+		if (planner_) {
+			for (const PoseKeyframe &keyframe : keyframes_) {
+				planner_->remove_constraint(keyframe.id);
+			}
+		}
+		keyframes_ = std::move(list);
+		keyframe_resources_ = keyframes;
+		if (planner_ && retargeter_) {
+			const double now = get_time();
+			for (PoseKeyframe &keyframe : keyframes_) {
+				if (keyframe.time >= now) {
+					submit(keyframe);
+				}
+			}
+		}
+	} catch (const std::exception &failure) {
+		fail(failure.what());
+	}
+}
+
+Array MotionGenerator::get_keyframes() const {
+	return keyframe_resources_;
 }
 
 void MotionGenerator::clear_constraints() {
@@ -665,9 +782,11 @@ void MotionGenerator::clear_constraints() {
 
 void MotionGenerator::clear_goal_lists() {
 	waypoints_.clear();
+	waypoint_resources_ = Array();
 	path_.reset();
 	joint_targets_.clear();
 	keyframes_.clear();
+	keyframe_resources_ = Array();
 	queued_prompts_.clear();
 }
 
@@ -908,6 +1027,13 @@ bool MotionGenerator::start_planner(const std::vector<float> &initial_history) {
 	}
 	for (WorldJointTarget &target : joint_targets_) {
 		submit(target);
+	}
+	for (PoseKeyframe &keyframe : keyframes_) {
+		try {
+			submit(keyframe);
+		} catch (const std::exception &failure) {
+			fail(std::string("keyframes: ") + failure.what());
+		}
 	}
 	windows_seen_ = 0;
 	last_window_id_ = 0;
@@ -1299,6 +1425,10 @@ void MotionGenerator::_bind_methods() {
 	ClassDB::bind_method(D_METHOD("set_preview_in_editor", "preview"), &MotionGenerator::set_preview_in_editor);
 	ClassDB::bind_method(D_METHOD("get_preview_in_editor"), &MotionGenerator::get_preview_in_editor);
 
+	ClassDB::bind_method(D_METHOD("set_waypoints", "waypoints"), &MotionGenerator::set_waypoints);
+	ClassDB::bind_method(D_METHOD("get_waypoints"), &MotionGenerator::get_waypoints);
+	ClassDB::bind_method(D_METHOD("set_keyframes", "keyframes"), &MotionGenerator::set_keyframes);
+	ClassDB::bind_method(D_METHOD("get_keyframes"), &MotionGenerator::get_keyframes);
 	ClassDB::bind_method(D_METHOD("queue_prompt", "text", "at_seconds"), &MotionGenerator::queue_prompt);
 	ClassDB::bind_method(D_METHOD("clear_prompts"), &MotionGenerator::clear_prompts);
 	ClassDB::bind_method(D_METHOD("add_waypoint", "position", "at_seconds", "heading"), &MotionGenerator::add_waypoint, DEFVAL(NAN));
@@ -1329,6 +1459,9 @@ void MotionGenerator::_bind_methods() {
 	ADD_PROPERTY(PropertyInfo(Variant::BOOL, "playing"), "set_playing", "is_playing");
 	ADD_PROPERTY(PropertyInfo(Variant::VECTOR3, "target_velocity", PROPERTY_HINT_NONE, "suffix:m/s"), "set_target_velocity", "get_target_velocity");
 	ADD_PROPERTY(PropertyInfo(Variant::BOOL, "foot_lock"), "set_foot_lock", "get_foot_lock");
+	ADD_GROUP("Goals", "");
+	ADD_PROPERTY(PropertyInfo(Variant::ARRAY, "waypoints", PROPERTY_HINT_TYPE_STRING, "24/17:MotionWaypoint"), "set_waypoints", "get_waypoints");
+	ADD_PROPERTY(PropertyInfo(Variant::ARRAY, "keyframes", PROPERTY_HINT_TYPE_STRING, "24/17:MotionKeyframe"), "set_keyframes", "get_keyframes");
 	ADD_GROUP("Sampling", "");
 	ADD_PROPERTY(PropertyInfo(Variant::INT, "steps", PROPERTY_HINT_RANGE, "0,50,1,or_greater"), "set_steps", "get_steps");
 	ADD_PROPERTY(PropertyInfo(Variant::FLOAT, "text_guidance", PROPERTY_HINT_RANGE, "-1,10,0.1,or_greater"), "set_text_guidance", "get_text_guidance");

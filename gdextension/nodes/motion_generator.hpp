@@ -79,6 +79,11 @@ public:
 	void set_preview_in_editor(bool preview);
 	bool get_preview_in_editor() const;
 
+	void set_waypoints(const godot::Array &waypoints);
+	godot::Array get_waypoints() const;
+	void set_keyframes(const godot::Array &keyframes);
+	godot::Array get_keyframes() const;
+
 	// --- methods ---
 	void queue_prompt(const godot::String &text, double at_seconds);
 	void clear_prompts();
@@ -139,6 +144,7 @@ private:
 	};
 	struct PoseKeyframe {
 		double time = 0.0;
+		godot::Dictionary pose;  // rig bone name -> local rotation
 		Planner::ConstraintId id = 0;
 		bool reached = false;
 	};
@@ -169,6 +175,7 @@ private:
 	void submit(WorldWaypoint &waypoint);
 	void submit(WorldPath &path);
 	void submit(WorldJointTarget &target);
+	void submit(PoseKeyframe &keyframe);
 	void apply_root_motion(double delta, const Frame &character);
 	void update_rig_pose(const Frame &body, const Frame &character);
 	void report_planner();
@@ -234,6 +241,8 @@ private:
 	std::vector<WorldJointTarget> joint_targets_;
 	std::vector<PoseKeyframe> keyframes_;
 	std::vector<QueuedPrompt> queued_prompts_;  // queued before the planner started
+	godot::Array waypoint_resources_;            // MotionWaypoint, as saved with the scene
+	godot::Array keyframe_resources_;            // MotionKeyframe
 
 	uint64_t windows_seen_ = 0;
 	uint64_t last_window_id_ = 0;

@@ -283,3 +283,68 @@ func test_second_rig_gets_the_same_motion() -> void:
 	)
 	reference.dispose()
 	other.dispose()
+
+
+func _box(parent: Node, size: Vector3, position: Vector3) -> void:
+	var body := StaticBody3D.new()
+	var shape := CollisionShape3D.new()
+	var box := BoxShape3D.new()
+	box.size = size
+	shape.shape = box
+	body.add_child(shape)
+	body.position = position
+	parent.add_child(body)
+
+
+func test_character_body_is_stopped_by_a_wall_and_still_reaches_a_waypoint() -> void:
+	var world := Node3D.new()
+	tree.root.add_child(world)
+	_box(world, Vector3(30, 1, 30), Vector3(0, -0.5, 0))
+	# A wall across x = 2.5 with a gap from z = 1.5 to z = 3.5.
+	_box(world, Vector3(0.4, 3, 10), Vector3(2.5, 1.5, -3.5))
+	_box(world, Vector3(0.4, 3, 10), Vector3(2.5, 1.5, 8.5))
+	var body := CharacterBody3D.new()
+	body.name = "Body"
+	var capsule := CollisionShape3D.new()
+	var capsule_shape := CapsuleShape3D.new()
+	capsule_shape.radius = 0.3
+	capsule_shape.height = 1.8
+	capsule.shape = capsule_shape
+	capsule.position = Vector3(0, 0.9, 0)
+	body.add_child(capsule)
+	world.add_child(body)
+	var character := TestCharacter.new(null, body)
+	var generator := character.generator
+	generator.root_motion_target = NodePath("../..")
+	generator.prompt = "walk"
+	generator.playing = true
+	check(await character.wait_until_generating(tree), "generation started")
+	generator.target_velocity = Vector3(1.2, 0, 0)
+	check(await character.wait_until_time(tree, 5.0), "5 s walking into the wall")
+	var stopped := body.global_position
+	print("  wall: the body stopped at x = %.2f (the wall's face is at 2.3)" % stopped.x)
+	check(stopped.x < 2.3 - 0.25, "the wall stopped the body at x = %.2f" % stopped.x)
+	check(absf(stopped.y) < 0.1, "the body stands on the floor (y = %.2f)" % stopped.y)
+	var hips := character.last_position("Hips")
+	check(
+		_ground_distance(hips, stopped) < 0.3,
+		"the hips stay with the body: %.2f m apart" % _ground_distance(hips, stopped)
+	)
+
+	generator.target_velocity = Vector3.ZERO
+	var now := generator.get_time()
+	var before_gap := Vector3(1.6, 0, 2.5)
+	var beyond := Vector3(4.5, 0, 2.5)
+	generator.add_waypoint(before_gap, now + 3.0)
+	generator.add_waypoint(beyond, now + 6.0)
+	var reached: Array[int] = []
+	generator.waypoint_reached.connect(func(index: int) -> void: reached.append(index))
+	check(await character.wait_until_time(tree, now + 7.0), "7 s more")
+	var closest := INF
+	for sample in character.samples:
+		if sample["time"] > now:
+			closest = minf(closest, _ground_distance(sample["bones"]["Hips"], beyond))
+	print("  wall: through the gap, the hips passed %.2f m from the waypoint beyond it" % closest)
+	check(closest < 0.3, "the hips passed %.2f m from the waypoint beyond the gap" % closest)
+	check(reached.has(1), "waypoint_reached fired for the waypoint beyond the gap: %s" % [reached])
+	world.free()
