@@ -3,6 +3,9 @@
 #include "godot/ref.hpp"
 
 #include <map>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 #include <thread>
 #include <vector>
 
@@ -68,6 +71,16 @@ void load(const std::shared_ptr<SharedModel> &model, std::shared_ptr<OnnxEnviron
 }
 
 } // namespace
+
+SharedModel::~SharedModel() {
+	batcher_.reset();
+	package_.reset();
+#if defined(__GLIBC__)
+	// A package's sessions free hundreds of blocks of every size; without a
+	// trim the process keeps them (resident memory climbs over model swaps).
+	malloc_trim(0);
+#endif
+}
 
 bool SharedModel::is_done() const {
 	std::lock_guard<std::mutex> lock(mutex_);

@@ -27,6 +27,8 @@ public:
 	WindowBatcherStats batcher_stats() const;
 
 	explicit SharedModel(std::string path) : path_(std::move(path)) {}
+	// Frees the package and hands the freed memory back to the system.
+	~SharedModel();
 	void finish(std::shared_ptr<const ModelPackage> package, std::string error);
 
 private:

@@ -42,23 +42,28 @@ glm::mat3 yaw_matrix(float yaw) {
 	return heading_rotation(yaw);
 }
 
-// Elapsed microseconds of one main-thread step, smoothed into `average`.
+// Adds the elapsed microseconds of one main-thread step to `total`.
 class MainThreadTimer {
 public:
-	explicit MainThreadTimer(double &average) : average_(average), start_(Clock::now()) {}
-	~MainThreadTimer() {
-		const double elapsed = std::chrono::duration<double, std::micro>(Clock::now() - start_).count();
-		average_ = average_ == 0.0 ? elapsed : 0.95 * average_ + 0.05 * elapsed;
-	}
+	explicit MainThreadTimer(double &total) : total_(total), start_(Clock::now()) {}
+	~MainThreadTimer() { total_ += std::chrono::duration<double, std::micro>(Clock::now() - start_).count(); }
 
 private:
-	double &average_;
+	double &total_;
 	Clock::time_point start_;
 };
 
+double median(std::vector<double> values) {
+	if (values.empty()) {
+		return 0.0;
+	}
+	std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2), values.end());
+	return values[values.size() / 2];
+}
+
 } // namespace
 
-MotionGenerator::MotionGenerator() : model_path_(kDefaultModelPath) {}
+MotionGenerator::MotionGenerator() : model_path_(kDefaultModelPath), in_editor_(Engine::get_singleton()->is_editor_hint()) {}
 
 MotionGenerator::~MotionGenerator() = default;
 
@@ -309,7 +314,7 @@ double MotionGenerator::get_waypoint_reach_distance() const {
 
 void MotionGenerator::set_preview_in_editor(bool preview) {
 	preview_in_editor_ = preview;
-	if (!Engine::get_singleton()->is_editor_hint()) {
+	if (!in_editor_) {
 		return;
 	}
 	if (preview_in_editor_ && is_inside_tree()) {
@@ -597,7 +602,7 @@ void MotionGenerator::add_joint_target(const String &bone, double at_seconds, co
 			Skeleton3D *skeleton = find_skeleton();
 			const glm::quat skeleton_rotation = skeleton != nullptr ? to_frame(skeleton->get_global_transform()).rotation() : glm::quat(1, 0, 0, 0);
 			const glm::quat rig_global = glm::inverse(skeleton_rotation) * glm::normalize(world);
-			target.rotation = retargeter_->model_global_rotation(static_cast<size_t>(rig_bone), rig_global, frame_rotation());
+			target.rotation = retargeter_->model_global_rotation(static_cast<size_t>(rig_bone), rig_global, frame_rotation(find_skeleton()));
 		} else if (!rotation.is_nil()) {
 			throw Error("add_joint_target: rotation must be a Quaternion, a Basis or null");
 		}
@@ -667,7 +672,7 @@ Pose MotionGenerator::standing_pose(const Variant &pose, const char *what, std::
 		throw Error(std::string(what) + ": a pose needs the model and the rig to be ready (wait for model_loaded)");
 	}
 	Pose model_pose;
-	model_pose.local_rotations = retargeter_->capture(rig_pose_of(pose, what), frame_rotation());
+	model_pose.local_rotations = retargeter_->capture(rig_pose_of(pose, what), frame_rotation(find_skeleton()));
 	glm::quat &hips = model_pose.local_rotations[0];
 	const glm::vec3 forward = hips * glm::vec3(0.0f, 0.0f, 1.0f);
 	const float pose_heading = std::atan2(forward.x, forward.z);
@@ -855,12 +860,10 @@ double MotionGenerator::get_time() const {
 
 Dictionary MotionGenerator::get_stats() const {
 	Dictionary stats;
-	std::vector<double> sorted(latencies_ms_.begin(), latencies_ms_.end());
-	std::sort(sorted.begin(), sorted.end());
-	const double median = sorted.empty() ? 0.0 : sorted[sorted.size() / 2];
 	stats.set("last_latency_ms", last_latency_ms_);
-	stats.set("median_latency_ms", median);
-	stats.set("main_thread_usec", process_microseconds_ + write_microseconds_);
+	stats.set("median_latency_ms", median(std::vector<double>(latencies_ms_.begin(), latencies_ms_.end())));
+	const size_t costs = std::min(frame_cost_index_, frame_microseconds_.size());
+	stats.set("main_thread_usec", median(std::vector<double>(frame_microseconds_.begin(), frame_microseconds_.begin() + static_cast<std::ptrdiff_t>(costs))));
 	if (planner_) {
 		const PlannerStats planner = planner_->stats();
 		stats.set("windows", static_cast<int64_t>(planner.windows_published));
@@ -921,11 +924,11 @@ bool MotionGenerator::fail(const std::string &message) {
 // --- life cycle ------------------------------------------------------------------
 
 bool MotionGenerator::is_active() const {
-	return Engine::get_singleton()->is_editor_hint() ? preview_in_editor_ : true;
+	return in_editor_ ? preview_in_editor_ : true;
 }
 
 void MotionGenerator::request_model() {
-	if (!is_active() || !(playing_ || Engine::get_singleton()->is_editor_hint())) {
+	if (!is_active() || !(playing_ || in_editor_)) {
 		return;
 	}
 	const std::string path = text(model_path_);
@@ -965,6 +968,7 @@ void MotionGenerator::poll_model() {
 }
 
 void MotionGenerator::_enter_tree() {
+	in_tree_ = true;
 	set_process(true);
 }
 
@@ -973,6 +977,7 @@ void MotionGenerator::_ready() {
 }
 
 void MotionGenerator::_exit_tree() {
+	in_tree_ = false;
 	// The modifier stays under the skeleton (it writes nothing while this node
 	// is outside the tree) and frees itself once this node is gone.
 }
@@ -1004,7 +1009,7 @@ PlannerConfig MotionGenerator::planner_config(const std::vector<float> &initial_
 }
 
 bool MotionGenerator::start_planner(const std::vector<float> &initial_history) {
-	if (!package_ || !build_rig()) {
+	if (!package_ || !build_rig(find_skeleton())) {
 		return false;
 	}
 	place_anchor();
@@ -1046,7 +1051,7 @@ bool MotionGenerator::start_planner(const std::vector<float> &initial_history) {
 	fall_speed_ = 0.0f;
 	drift_since_submit_ = glm::vec2(0.0f);
 	set_target_velocity(target_velocity_);
-	ensure_modifier();
+	ensure_modifier(find_skeleton());
 	return true;
 }
 
@@ -1057,14 +1062,14 @@ void MotionGenerator::stop_planner() {
 }
 
 Skeleton3D *MotionGenerator::find_skeleton() const {
-	if (skeleton_path_.is_empty() || !is_inside_tree()) {
+	if (skeleton_path_.is_empty() || !in_tree_) {
 		return nullptr;
 	}
 	return Object::cast_to<Skeleton3D>(get_node_or_null(skeleton_path_));
 }
 
 Node3D *MotionGenerator::find_root_motion_target() const {
-	if (root_motion_target_path_.is_empty() || !is_inside_tree() || Engine::get_singleton()->is_editor_hint()) {
+	if (root_motion_target_path_.is_empty() || !in_tree_ || in_editor_) {
 		return nullptr;
 	}
 	return Object::cast_to<Node3D>(get_node_or_null(root_motion_target_path_));
@@ -1077,8 +1082,7 @@ Node3D *MotionGenerator::reference_node() const {
 	return find_skeleton();
 }
 
-bool MotionGenerator::build_rig() {
-	Skeleton3D *skeleton = find_skeleton();
+bool MotionGenerator::build_rig(Skeleton3D *skeleton) {
 	if (skeleton == nullptr || !package_) {
 		return false;
 	}
@@ -1127,13 +1131,17 @@ bool MotionGenerator::build_rig() {
 	return true;
 }
 
-void MotionGenerator::ensure_modifier() {
-	Skeleton3D *skeleton = find_skeleton();
+void MotionGenerator::ensure_modifier(Skeleton3D *skeleton) {
 	if (skeleton == nullptr) {
 		return;
 	}
+	const uint64_t skeleton_id = skeleton->get_instance_id();
+	if (modifier_id_ != 0 && modifier_skeleton_id_ == skeleton_id) {
+		return;  // checked when it was made; a freed skeleton takes it along and changes the id
+	}
 	auto *modifier = Object::cast_to<MotionPoseModifier>(object_from_instance_id(modifier_id_));
 	if (modifier != nullptr && modifier->get_parent() == skeleton) {
+		modifier_skeleton_id_ = skeleton_id;
 		return;
 	}
 	remove_modifier();
@@ -1142,12 +1150,14 @@ void MotionGenerator::ensure_modifier() {
 	modifier->set_influence(influence_);
 	skeleton->add_child(modifier, false, Node::INTERNAL_MODE_BACK);
 	modifier_id_ = modifier->get_instance_id();
+	modifier_skeleton_id_ = skeleton_id;
 }
 
 void MotionGenerator::remove_modifier() {
 	// Freed by the engine at the end of the frame: its skeleton may be busy now.
 	auto *modifier = Object::cast_to<MotionPoseModifier>(object_from_instance_id(modifier_id_));
 	modifier_id_ = 0;
+	modifier_skeleton_id_ = 0;
 	if (modifier != nullptr) {
 		modifier->set_generator_id(0);
 		modifier->queue_free();
@@ -1171,9 +1181,8 @@ void MotionGenerator::place_anchor() {
 	anchor_placed_ = true;
 }
 
-glm::quat MotionGenerator::frame_rotation() const {
+glm::quat MotionGenerator::frame_rotation(const Skeleton3D *skeleton) const {
 	// Model world -> skeleton space: the anchor's yaw, then the skeleton's world rotation undone.
-	Skeleton3D *skeleton = find_skeleton();
 	const glm::quat skeleton_rotation = skeleton != nullptr ? to_frame(skeleton->get_global_transform()).rotation() : glm::quat(1, 0, 0, 0);
 	return glm::normalize(glm::inverse(skeleton_rotation) * glm::quat_cast(anchor_.yaw));
 }
@@ -1181,21 +1190,29 @@ glm::quat MotionGenerator::frame_rotation() const {
 // --- every frame ---------------------------------------------------------------------
 
 void MotionGenerator::_process(double delta) {
-	MainThreadTimer timer(process_microseconds_);
+	// The cost of the frame before: this _process and its pose write.
+	frame_microseconds_[frame_cost_index_ % frame_microseconds_.size()] = current_frame_microseconds_;
+	++frame_cost_index_;
+	current_frame_microseconds_ = 0.0;
+	MainThreadTimer timer(current_frame_microseconds_);
 	poll_model();
 	if (!planner_) {
-		if (package_ && is_active() && (playing_ || Engine::get_singleton()->is_editor_hint())) {
+		if (package_ && is_active() && (playing_ || in_editor_)) {
 			start_planner({});
 		}
 		if (!planner_) {
 			return;
 		}
 	}
-	if (!build_rig()) {
+	// Looked up once a frame: path lookups are the dearest engine calls here.
+	Skeleton3D *skeleton = find_skeleton();
+	Node3D *target = find_root_motion_target();
+	if (!build_rig(skeleton)) {
 		return;
 	}
-	ensure_modifier();
-	if (playing_ || Engine::get_singleton()->is_editor_hint()) {
+	ensure_modifier(skeleton);
+	// The motion clock starts with the first generated frame, not before it.
+	if (has_pose_ && (playing_ || in_editor_)) {
 		planner_->advance(std::max(0.0, delta));
 	}
 	report_planner();
@@ -1209,12 +1226,11 @@ void MotionGenerator::_process(double delta) {
 	character.basis = yaw_matrix(anchor_.yaw_angle + pose_.heading);
 	character.origin = root_world;
 	hips_world_ = anchor_.to_world(pose_.root_position);
-	apply_root_motion(delta, character);
+	apply_root_motion(delta, character, target, skeleton);
 	emit_reached_goals();
 }
 
-void MotionGenerator::apply_root_motion(double delta, const Frame &character) {
-	Node3D *target = find_root_motion_target();
+void MotionGenerator::apply_root_motion(double delta, const Frame &character, Node3D *target, Skeleton3D *skeleton) {
 	Frame body = character;
 	if (target != nullptr) {
 		const Frame current = to_frame(target->get_global_transform());
@@ -1257,11 +1273,10 @@ void MotionGenerator::apply_root_motion(double delta, const Frame &character) {
 		}
 		has_last_character_ = true;
 	}
-	update_rig_pose(body, character);
+	update_rig_pose(body, character, target != nullptr, skeleton);
 }
 
-void MotionGenerator::update_rig_pose(const Frame &body, const Frame &character) {
-	Skeleton3D *skeleton = find_skeleton();
+void MotionGenerator::update_rig_pose(const Frame &body, const Frame &character, bool moved_target, Skeleton3D *skeleton) {
 	if (skeleton == nullptr || !retargeter_) {
 		has_rig_pose_ = false;
 		return;
@@ -1269,8 +1284,8 @@ void MotionGenerator::update_rig_pose(const Frame &body, const Frame &character)
 	const Frame skeleton_frame = to_frame(skeleton->get_global_transform());
 	const glm::quat skeleton_rotation = skeleton_frame.rotation();
 	glm::vec3 hips_world = hips_world_;
-	glm::quat frame = frame_rotation();
-	if (find_root_motion_target() != nullptr) {
+	glm::quat frame = glm::normalize(glm::inverse(skeleton_rotation) * glm::quat_cast(anchor_.yaw));
+	if (moved_target) {
 		// The pose relative to the character's frame, shown where the body is.
 		const glm::vec3 relative = glm::inverse(character.rotation()) * (hips_world_ - character.origin);
 		hips_world = body.origin + body.rotation() * relative;
@@ -1278,15 +1293,16 @@ void MotionGenerator::update_rig_pose(const Frame &body, const Frame &character)
 	}
 	retargeter_->apply(pose_.local_rotations, frame, skeleton_frame.apply_inverse(hips_world), rig_pose_);
 	has_rig_pose_ = true;
+	posed_skeleton_ = skeleton;
 }
 
 void MotionGenerator::write_pose(Skeleton3D *skeleton) {
-	MainThreadTimer timer(write_microseconds_);
-	if (!has_rig_pose_ || !is_inside_tree() || skeleton == nullptr || skeleton->get_instance_id() != rig_skeleton_id_ || !retargeter_) {
+	MainThreadTimer timer(current_frame_microseconds_);
+	// Only the skeleton this frame's pose was made for (the rig's bones are known from then).
+	if (!has_rig_pose_ || !in_tree_ || skeleton == nullptr || skeleton != posed_skeleton_ || !retargeter_) {
 		return;
 	}
-	const size_t bones = std::min(rig_pose_.local_rotations.size(), static_cast<size_t>(skeleton->get_bone_count()));
-	for (size_t bone = 0; bone < bones; ++bone) {
+	for (size_t bone = 0; bone < rig_pose_.local_rotations.size(); ++bone) {
 		if (rig_pose_.written[bone]) {
 			skeleton->set_bone_pose_rotation(static_cast<int32_t>(bone), to_godot(rig_pose_.local_rotations[bone]));
 		}

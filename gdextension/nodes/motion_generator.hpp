@@ -19,6 +19,7 @@
 #include "planner.hpp"
 #include "retarget.hpp"
 
+#include <array>
 #include <chrono>
 #include <deque>
 #include <memory>
@@ -162,8 +163,8 @@ private:
 	void poll_model();
 	bool start_planner(const std::vector<float> &initial_history);
 	void stop_planner();
-	bool build_rig();
-	void ensure_modifier();
+	bool build_rig(godot::Skeleton3D *skeleton);
+	void ensure_modifier(godot::Skeleton3D *skeleton);
 	void remove_modifier();
 	godot::Skeleton3D *find_skeleton() const;
 	godot::Node3D *find_root_motion_target() const;
@@ -176,14 +177,14 @@ private:
 	void submit(WorldPath &path);
 	void submit(WorldJointTarget &target);
 	void submit(PoseKeyframe &keyframe);
-	void apply_root_motion(double delta, const Frame &character);
-	void update_rig_pose(const Frame &body, const Frame &character);
+	void apply_root_motion(double delta, const Frame &character, godot::Node3D *target, godot::Skeleton3D *skeleton);
+	void update_rig_pose(const Frame &body, const Frame &character, bool moved_target, godot::Skeleton3D *skeleton);
 	void report_planner();
 	void emit_reached_goals();
 	std::vector<glm::quat> rig_pose_of(const godot::Variant &pose, const char *what) const;
 	// A rig pose as the model's, standing on the ground, turned to `heading` when given.
 	Pose standing_pose(const godot::Variant &pose, const char *what, std::optional<float> heading) const;
-	glm::quat frame_rotation() const;
+	glm::quat frame_rotation(const godot::Skeleton3D *skeleton) const;
 	std::optional<std::string> model_joint_of(const godot::String &bone) const;
 	double check_time(double at_seconds, const char *what) const;
 	bool fail(const std::string &message);
@@ -207,6 +208,7 @@ private:
 	godot::Vector3 target_velocity_;
 	double waypoint_reach_distance_ = 0.3;
 	bool preview_in_editor_ = false;
+	const bool in_editor_;  // running inside the editor (Engine.is_editor_hint())
 
 	// Destroyed in reverse order: the planner before the model it uses.
 	std::shared_ptr<SharedModel> model_;          // loaded, in use
@@ -216,6 +218,9 @@ private:
 	std::unique_ptr<Planner> planner_;
 
 	uint64_t modifier_id_ = 0;
+	uint64_t modifier_skeleton_id_ = 0;     // the skeleton the modifier was put under
+	godot::Skeleton3D *posed_skeleton_ = nullptr;  // the skeleton rig_pose_ was made for (compared, never used)
+	bool in_tree_ = false;
 	uint64_t rig_skeleton_id_ = 0;
 	uint64_t rig_version_ = 0;
 	uint64_t rig_bone_map_id_ = 0;
@@ -251,8 +256,10 @@ private:
 	std::optional<std::string> shown_prompt_;
 	std::deque<double> latencies_ms_;
 	double last_latency_ms_ = 0.0;
-	double process_microseconds_ = 0.0;  // smoothed per frame: _process
-	double write_microseconds_ = 0.0;    // and writing the pose
+	// Main-thread microseconds of the recent frames (_process and the pose write).
+	std::array<double, 64> frame_microseconds_{};
+	size_t frame_cost_index_ = 0;
+	double current_frame_microseconds_ = 0.0;
 	bool load_failed_ = false;  // the last load failed (a configuration warning)
 	std::string last_error_;
 	std::string last_worker_error_;

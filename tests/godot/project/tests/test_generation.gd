@@ -27,7 +27,12 @@ func test_walk_moves_the_hips_and_wave_keeps_them() -> void:
 	generator.prompt_started.connect(func(text: String) -> void: started[text] = generator.get_time())
 	check(await character.wait_until_time(tree, 3.0), "the motion clock reached 3 s")
 	var travel := _ground_distance(character.position_at("Hips", 0.05), character.position_at("Hips", 3.0))
-	print("  walk: hips travelled %.2f m in 3 s" % travel)
+	print(
+		(
+			"  walk: hips travelled %.2f m in 3 s; main thread %.1f us per frame for one character"
+			% [travel, generator.get_stats()["main_thread_usec"]]
+		)
+	)
 	check(travel > 1.5, "walking moved the hips %.2f m in 3 s, expected more than 1.5 m" % travel)
 
 	var changed_at := generator.get_time()
@@ -348,3 +353,62 @@ func test_character_body_is_stopped_by_a_wall_and_still_reaches_a_waypoint() -> 
 	check(closest < 0.3, "the hips passed %.2f m from the waypoint beyond the gap" % closest)
 	check(reached.has(1), "waypoint_reached fired for the waypoint beyond the gap: %s" % [reached])
 	world.free()
+
+
+func test_fifty_characters_share_one_worker_without_underruns() -> void:
+	var prompts := ["walk", "run", "wave with the right hand", "walk like an old man", "jump", "dance"]
+	var crowd: Array[TestCharacter] = []
+	for i in 50:
+		var character := TestCharacter.new(null, tree.root)
+		character.root.position = Vector3((i % 10) * 2.0, 0, (i / 10) * 2.0)
+		character.generator.prompt = prompts[i % prompts.size()]
+		character.generator.seed = i
+		character.generator.playing = true
+		crowd.append(character)
+	var started := Time.get_ticks_msec()
+	# Every character's first window has come (its motion clock runs).
+	while crowd.any(func(c: TestCharacter) -> bool: return c.generator.get_time() <= 0.0):
+		await tree.process_frame
+		if Time.get_ticks_msec() - started > 60000:
+			break
+	# 20 s of real time, then the totals over the crowd.
+	var underrun_before := 0.0
+	var played_before := 0.0
+	for character in crowd:
+		underrun_before += character.generator.get_stats()["underrun_seconds"]
+		played_before += character.generator.get_time()
+	var begin := Time.get_ticks_msec()
+	var frames := 0
+	var main_thread_usec := 0.0
+	var engine_seconds := 0.0
+	while Time.get_ticks_msec() - begin < 20000:
+		await tree.process_frame
+		engine_seconds += tree.root.get_process_delta_time()
+		frames += 1
+		if frames % 30 == 0:
+			for character in crowd:
+				main_thread_usec += character.generator.get_stats()["main_thread_usec"]
+	var played := -played_before
+	var underrun := -underrun_before
+	var largest_batch := 0
+	for character in crowd:
+		var stats: Dictionary = character.generator.get_stats()
+		played += character.generator.get_time()
+		underrun += stats["underrun_seconds"]
+		largest_batch = maxi(largest_batch, stats["largest_batch"])
+	var per_character := main_thread_usec / maxf(1.0, float(frames / 30) * crowd.size())
+	print(
+		(
+			"  50 characters, 20 s (%.1f s of frame deltas): %.1f s played each, underrun %.2f %% of played time, largest batch %d, %d frames, main thread %.1f us per character per frame"
+			% [engine_seconds, played / crowd.size(), 100.0 * underrun / played, largest_batch, frames, per_character]
+		)
+	)
+	check(
+		played / crowd.size() > 0.95 * engine_seconds,
+		"each character played %.1f s of %.1f s" % [played / crowd.size(), engine_seconds]
+	)
+	print("  (before the 20 s: %.2f s of underrun over the crowd while it started)" % underrun_before)
+	check(underrun / played < 0.02, "underrun %.2f %% of played time, expected under 2 %%" % (100.0 * underrun / played))
+	check(largest_batch > 1, "windows were batched (largest batch %d)" % largest_batch)
+	for character in crowd:
+		character.dispose()
