@@ -1,6 +1,8 @@
 extends TestCase
 ## Creating and freeing many nodes, and loading models again and again, must
-## leave the engine's tracked memory and object count where they were.
+## leave the engine's tracked memory and object count where they were, and the
+## process's resident memory (which sees ONNX Runtime and std:: allocations)
+## within TestCase.RESIDENT_GROWTH_BOUND.
 
 const NODES := 5000
 const LOADS := 200
@@ -8,6 +10,7 @@ const LOADS := 200
 
 func test_create_and_free_5000_nodes_keeps_memory_flat() -> void:
 	_churn(200)  # warm caches (StringNames, method binds) before measuring
+	var resident_before := resident_bytes()
 	var memory_before := OS.get_static_memory_usage()
 	var objects_before := Performance.get_monitor(Performance.OBJECT_COUNT)
 	_churn(NODES)
@@ -21,11 +24,15 @@ func test_create_and_free_5000_nodes_keeps_memory_flat() -> void:
 	)
 	check(growth < 8 * 1024, "tracked memory grew by %d bytes over %d nodes" % [growth, NODES])
 	check_eq(objects_after, objects_before, "object count")
+	check_resident_growth(resident_before, "%d nodes" % NODES)
 
 
 func test_repeated_model_loads_keep_memory_flat() -> void:
 	var generator := MotionGenerator.new()
 	generator.load_model("res://fixtures/mlp.onnx")
+	expect_error("res://fixtures/missing.onnx", LOADS + 1)
+	generator.load_model("res://fixtures/missing.onnx")  # warm the failure path too
+	var resident_before := resident_bytes()
 	var memory_before := OS.get_static_memory_usage()
 	for i in LOADS:
 		generator.load_model("res://fixtures/mlp.onnx")
@@ -33,6 +40,7 @@ func test_repeated_model_loads_keep_memory_flat() -> void:
 	var growth := OS.get_static_memory_usage() - memory_before
 	print("  %d loads: tracked memory %+d bytes" % [LOADS, growth])
 	check(growth < 8 * 1024, "tracked memory grew by %d bytes over %d loads" % [growth, LOADS])
+	check_resident_growth(resident_before, "%d loads" % LOADS)
 	generator.free()
 
 
