@@ -19,9 +19,7 @@ def signature(element: ElementTree.Element) -> str:
     parts = [f"{k}={v}" for k, v in sorted(element.attrib.items())]
     for child in element:
         if child.tag in ("return", "param"):
-            parts.append(
-                child.tag + ":" + ",".join(f"{k}={v}" for k, v in sorted(child.attrib.items()))
-            )
+            parts.append(child.tag + ":" + ",".join(f"{k}={v}" for k, v in sorted(child.attrib.items())))
     return " ".join(parts)
 
 
@@ -69,10 +67,7 @@ def main() -> int:
             mine = documented.get(key)
             check(mine is not None, f"{name}: {key} is documented")
             if mine is not None:
-                check(
-                    signature(mine) == signature(element),
-                    f"{name}: {key} signature matches the engine's",
-                )
+                check(signature(mine) == signature(element), f"{name}: {key} signature matches the engine's")
                 check(bool(description(mine)), f"{name}: {key} has a description")
         for key in documented.keys() - registered.keys():
             check(False, f"{name}: {key} is documented but not registered")
