@@ -13,7 +13,7 @@ extends SceneTree
 
 ## A test still running after this long is reported as hung (a guard against
 ## awaiting a signal that never comes; no test asserts a time).
-const HANG_LIMIT_MSEC := 300000
+const HANG_LIMIT_MSEC := 120000
 
 
 class ErrorLogger:
