@@ -72,8 +72,9 @@ def build_parser() -> argparse.ArgumentParser:
         "make-fixtures",
         help="write the tiny ONNX graphs and golden vectors of the runtime's foundation tests",
         description=(
-            "Write mlp.onnx, mlp_golden.json and tokens.onnx (deterministic: regenerating "
-            "gives identical bytes)."
+            "Write mlp.onnx, mlp_golden.json and tokens.onnx (deterministic: regenerating on "
+            "one machine gives identical bytes; scripts/make_fixtures.sh regenerates every "
+            "fixture)."
         ),
     )
     make_fixtures.add_argument(

@@ -631,25 +631,4 @@ TEST_CASE("rollouts on several threads share one package", "[rollout][threads]")
   for (const WindowResult& r : results) CHECK(max_abs_diff(r.features, expected.features) < 1e-5);
 }
 
-// --- timing (printed, never asserted) ---------------------------------------------------------------
-
-TEST_CASE("latency of one window with the tiny package (printed)", "[.timing]") {
-  for (size_t steps : {4u, 10u}) {
-    RolloutSettings s;
-    s.steps = steps;
-    Rollout rollout = golden_rollout();
-    rollout.configure(s);
-    rollout.generate_next_window();  // warm up
-    rollout.generate_next_window();
-    std::vector<double> ms;
-    for (int i = 0; i < 30; ++i) {
-      Rollout copy = rollout;
-      const auto start = std::chrono::steady_clock::now();
-      copy.generate_next_window();
-      ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
-    }
-    std::sort(ms.begin(), ms.end());
-    std::cout << "window latency, " << steps << " steps (3 guidance rows, H 8, F 4): median " << ms[ms.size() / 2]
-              << " ms, min " << ms.front() << " ms\n";
-  }
-}
+// Window latency is measured by bench/run.sh (ardy-bench), not here: tests never time.

@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # Runs the engine tests: the real Godot, headless, loading the built extension.
-# Prints "N passed, N failed" (the test project's runner, the editor-help
-# check and the exported-pack check) and exits non-zero on any failure.
+# Prints "godot: N passed, N failed" over: the test project's runner (one per
+# test_* method), the check that the engine printed no error line the tests did
+# not declare (check_log.py), the harness's own test (planted failures,
+# check_harness.py), the editor-help check and the exported-pack check; exits
+# non-zero on any failure.
 set -uo pipefail
 
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
@@ -43,6 +46,23 @@ fi
 
 status=0
 godot --path "$PROJECT" -s res://runner.gd 2>&1 | tee "$WORK/runner.log" || status=1
+# Any ERROR / SCRIPT ERROR line beyond the errors the tests declared fails the run
+# (errors at start-up or exit belong to no test and are seen only here).
+python3 "$ROOT/tests/godot/check_log.py" "$WORK/runner.log" "engine output of the tests" \
+  >"$WORK/runner-errors.log" 2>&1 || status=1
+cat "$WORK/runner-errors.log"
+
+# The harness's own test: a throwaway copy of the project whose only tests are the
+# planted ones of tests/godot/harness/ (script errors, undeclared errors, a leaked
+# model package); the runner must fail exactly those, for those reasons.
+HARNESS=$WORK/harness
+cp -r "$PROJECT" "$HARNESS"
+rm -f "$HARNESS"/tests/test_*.gd "$HARNESS"/tests/test_*.gd.uid
+cp "$ROOT/tests/godot/harness/test_planted.gd" "$HARNESS/tests/"
+harness_status=0
+godot --path "$HARNESS" -s res://runner.gd >"$WORK/planted.log" 2>&1 || harness_status=$?
+python3 "$ROOT/tests/godot/check_harness.py" "$WORK/planted.log" "$harness_status" 2>&1 \
+  | tee "$WORK/harness.log" || { status=1; cat "$WORK/planted.log" >&2; }
 
 # The editor help must match what the engine registered.
 mkdir -p "$WORK/docs"
@@ -63,13 +83,18 @@ cp "$ADDON"/bin/*.so* "$WORK/export/addons/ardy/bin/"
 if godot --path "$PROJECT" --export-pack "Linux" "$WORK/export/tests.pck" >"$WORK/export.log" 2>&1 \
     && [ -f "$WORK/export/tests.pck" ]; then
   (cd "$WORK/export" && godot --main-pack "$WORK/export/tests.pck") 2>&1 | tee "$WORK/pack.log" || status=1
+  python3 "$ROOT/tests/godot/check_log.py" "$WORK/pack.log" "engine output of the exported pack" \
+    >"$WORK/pack-errors.log" 2>&1 || status=1
+  cat "$WORK/pack-errors.log"
 else
   cat "$WORK/export.log" >&2
   echo "0 passed, 1 failed" >"$WORK/pack.log"
   status=1
 fi
 
-read -r passed failed < <(grep -hE '^[0-9]+ passed, [0-9]+ failed$' "$WORK/runner.log" "$WORK/docs.log" "$WORK/pack.log" | awk '{ p += $1; f += $3 } END { print p + 0, f + 0 }')
+touch "$WORK/pack-errors.log"
+read -r passed failed < <(grep -hE '^[0-9]+ passed, [0-9]+ failed$' "$WORK/runner.log" "$WORK/runner-errors.log" \
+    "$WORK/harness.log" "$WORK/docs.log" "$WORK/pack.log" "$WORK/pack-errors.log" | awk '{ p += $1; f += $3 } END { print p + 0, f + 0 }')
 if [ "$passed" -eq 0 ] || [ $status -ne 0 ]; then
   failed=$((failed > 0 ? failed : 1))
 fi

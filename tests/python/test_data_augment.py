@@ -30,6 +30,9 @@ from ardy_export.data.skeleton import (
 )
 from test_data_common import real_clips
 
+# Every test here runs on the real Bandai Namco clips.
+pytestmark = pytest.mark.requires_data
+
 
 def test_mirror_twice_is_identity() -> None:
     for clip in real_clips():

@@ -127,6 +127,7 @@ def test_rotation_helpers() -> None:
     np.testing.assert_allclose(yaw_matrix(0.3) @ [0, 0, 1], [np.sin(0.3), 0, np.cos(0.3)])
 
 
+@pytest.mark.requires_data
 def test_fk_of_parsed_clips_matches_the_files_own_positions() -> None:
     """Our pipeline (fold joint_Root, rest frames, metres) against an independent naive FK of
     the raw file at 30 fps: every joint within 1 mm, in every frame."""
@@ -156,6 +157,7 @@ def test_fk_of_parsed_clips_matches_the_files_own_positions() -> None:
         assert np.abs(positions_from_features(features)[::2] - expected[::3]).max() < 1e-3
 
 
+@pytest.mark.requires_data
 def test_joint_root_translation_is_folded_into_hips() -> None:
     bvh = read_bvh(clip_path("dataset-1_walk_normal_002"))
     root = bvh.channels_of("joint_Root")
@@ -165,6 +167,7 @@ def test_joint_root_translation_is_folded_into_hips() -> None:
     np.testing.assert_allclose(motion.root_positions, (hips + root[:, :3]) * 0.01, atol=1e-9)
 
 
+@pytest.mark.requires_data
 def test_position_channels_below_hips_equal_offsets() -> None:
     for path in all_clip_paths():
         bvh = read_bvh(path)
@@ -173,6 +176,7 @@ def test_position_channels_below_hips_equal_offsets() -> None:
         assert np.abs(translations[:, below] - bvh.offsets[below]).max() < 1e-4
 
 
+@pytest.mark.requires_data
 def test_skeleton_definition() -> None:
     assert len(JOINT_NAMES) == 21 and JOINT_NAMES[0] == "Hips" and JOINT_NAMES[20] == "Toes_R"
     for j, parent in enumerate(PARENTS):
@@ -193,6 +197,7 @@ def test_skeleton_definition() -> None:
         assert np.abs(motion.offsets - skeleton.offsets).max() < 1e-3
 
 
+@pytest.mark.requires_data
 def test_rest_frames_agree_with_the_data() -> None:
     """Heading-aligned global rotations of walking clips stay near identity for the spine and
     legs (the rest pose is an upright T-pose facing +Z)."""
@@ -223,6 +228,7 @@ def test_fk_and_local_rotations_round_trip() -> None:
     )
 
 
+@pytest.mark.requires_data
 def test_write_bvh_round_trip(tmp_path: Path) -> None:
     motion = resample_motion(motion_from_bvh(read_bvh(clip_path(CLIP_NAMES["dataset-2"][0]))), 20.0)
     _, positions = motion.global_pose()
@@ -241,6 +247,7 @@ def test_write_bvh_round_trip(tmp_path: Path) -> None:
     np.testing.assert_allclose(back, positions, atol=1e-4)
 
 
+@pytest.mark.requires_data
 def test_write_features_bvh(tmp_path: Path) -> None:
     from ardy_export.data.features import write_features_bvh
     from test_data_common import real_clips

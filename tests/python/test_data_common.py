@@ -1,14 +1,14 @@
 """Shared helpers of the data pipeline tests: a handful of real Bandai Namco clips.
 
-The clips are extracted once from the archives in ``../shared/data/bandai`` (or
-``$ARDY_BANDAI_DIR``) into ``data/test_cache/bandai`` (git-ignored) and reused by later runs;
-only the needed members are extracted. Tests that need them fail when the archives are
-absent. This module holds no tests itself.
+The clips are extracted once from the archives in ``conftest.bandai_dir()`` (the one place
+that decides where they are) into ``data/test_cache/bandai`` (git-ignored) and reused by later
+runs; only the needed members are extracted. Tests that need them carry
+``@pytest.mark.requires_data`` (skipped without the archives, failed with
+ARDY_REQUIRE_DATA=1; see conftest.py). This module holds no tests itself.
 """
 
 from __future__ import annotations
 
-import os
 import shutil
 import subprocess
 from functools import lru_cache
@@ -19,9 +19,9 @@ import pytest
 
 from ardy_export.data.config import load_data_config
 from ardy_export.data.dataset import Clip, clips_from_bvh_files
+from conftest import bandai_dir, require
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
-BANDAI_DIR = Path(os.environ.get("ARDY_BANDAI_DIR", REPO_ROOT.parent / "shared/data/bandai"))
 CACHE_DIR = REPO_ROOT / "data" / "test_cache" / "bandai"
 
 CLIP_NAMES: dict[str, tuple[str, ...]] = {
@@ -49,7 +49,7 @@ def _folder(dataset: str) -> str:
 
 
 def _archive(dataset: str) -> Path:
-    return BANDAI_DIR / f"{dataset}.tar.xz"
+    return bandai_dir() / f"{dataset}.tar.xz"
 
 
 def _members(dataset: str) -> list[str]:
@@ -80,11 +80,10 @@ def real_data_dir() -> Path | None:
 
 
 def require_real_data() -> Path:
+    require("requires_data")  # skips or fails the test (conftest.py) without the archives
     root = real_data_dir()
     if root is None:
-        # The data is part of the project's set-up (shared/ beside the checkout,
-        # or ARDY_BANDAI_DIR): its absence is a failure, not a skip.
-        pytest.fail(f"Bandai Namco archives not found in {BANDAI_DIR} (set ARDY_BANDAI_DIR)")
+        pytest.fail("tar is needed to extract the test clips from the Bandai Namco archives")
     return root
 
 

@@ -24,6 +24,9 @@ from ardy_export.data.features import (
 from ardy_export.data.split import save_split
 from test_data_common import CLIP_NAMES, LABEL_ONLY, dataset_root, real_clips
 
+# Every test here runs on the real Bandai Namco clips.
+pytestmark = pytest.mark.requires_data
+
 
 @pytest.fixture(scope="module")
 def small_source(tmp_path_factory: pytest.TempPathFactory) -> Path:

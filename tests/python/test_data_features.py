@@ -81,6 +81,7 @@ def test_velocity_convention() -> None:
     np.testing.assert_allclose(joint_velocities(x, 20.0)[:, 0], [20.0, 20.0, 40.0, 60.0])
 
 
+@pytest.mark.requires_data
 def test_features_round_trip_on_real_clips() -> None:
     """features -> pose -> features within 1e-4."""
     for clip in real_clips():
@@ -96,6 +97,7 @@ def test_features_round_trip_on_real_clips() -> None:
         assert np.abs(fk_positions - positions).max() < 2e-3, clip.name
 
 
+@pytest.mark.requires_data
 def test_feature_slices_hold_what_they_say() -> None:
     clip = real_clips()[5]  # dataset-2 walk
     _, positions = motion_from_features(clip.features)
@@ -127,6 +129,7 @@ def test_contacts_follow_thresholds() -> None:
     np.testing.assert_array_equal(contacts[1:], 0)
 
 
+@pytest.mark.requires_data
 def test_dataset_foot_skate_is_low_and_plausible() -> None:
     clips = real_clips()
     features = [c.features for c in clips]
@@ -143,6 +146,7 @@ def test_dataset_foot_skate_is_low_and_plausible() -> None:
     assert np.all((ratio > 0.2) & (ratio < 0.95))
 
 
+@pytest.mark.requires_data
 def test_recenter_round_trip() -> None:
     clip = max(real_clips(), key=lambda c: c.frames)
     centred, offset = recenter(clip.features, 10)
@@ -157,6 +161,7 @@ def test_recenter_round_trip() -> None:
     np.testing.assert_allclose(uncenter(centred_batch, offsets), batch, atol=1e-6)
 
 
+@pytest.mark.requires_data
 def test_normalization_stats(tmp_path: Path) -> None:
     clips = real_clips()
     stats = compute_normalization_stats(clips, seed=1)

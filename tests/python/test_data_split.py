@@ -16,7 +16,8 @@ from ardy_export.data.split import (
     save_split,
     split_of,
 )
-from test_data_common import REPO_ROOT, archive_groups
+from conftest import processed_dir
+from test_data_common import archive_groups
 
 CONTENTS = [
     "walk",
@@ -79,6 +80,7 @@ def test_split_is_deterministic(tmp_path: Path) -> None:
     assert load_split(a) == set(first)
 
 
+@pytest.mark.requires_data
 def test_committed_split_is_valid_for_the_real_data() -> None:
     data = json.loads(SPLIT_PATH.read_text(encoding="utf-8"))
     held = load_split()
@@ -90,11 +92,10 @@ def test_committed_split_is_valid_for_the_real_data() -> None:
         assert any(g[0] == dataset for g in held)
 
 
+@pytest.mark.requires_prepared_data
 def test_committed_split_regenerates_identically(tmp_path: Path) -> None:
-    """Needs the prepared dataset (ardy-export data prepare); skipped without it."""
-    index_path = REPO_ROOT / "data" / "processed" / "index.json"
-    if not index_path.is_file():
-        pytest.skip("data/processed/index.json not found (run ardy-export data prepare)")
+    """Needs the prepared dataset (ardy-export data prepare)."""
+    index_path = processed_dir() / "index.json"
     from ardy_export.data.config import load_data_config
     from ardy_export.data.dataset import group_frames
 

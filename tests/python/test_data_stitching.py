@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from ardy_export.data.augment import mirror_clip
 from ardy_export.data.features import (
@@ -13,6 +14,9 @@ from ardy_export.data.features import (
 )
 from ardy_export.data.stitching import build_stitched_sequences, stitch_quality
 from test_data_common import real_clips
+
+# Every test here runs on the real Bandai Namco clips.
+pytestmark = pytest.mark.requires_data
 
 
 def pool() -> list:

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -12,9 +10,8 @@ from ardy_export.data.config import load_data_config
 from ardy_export.data.features import joint_velocities, pack_features, positions_from_features
 from ardy_export.data.skeleton import FOOT_JOINTS, JOINT_COUNT
 from ardy_export.evaluation import metrics
+from conftest import processed_dir
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
-PROCESSED = REPO_ROOT / "data" / "processed"
 FPS = 20.0
 
 
@@ -58,12 +55,11 @@ def test_foot_skate_matches_the_feature_based_figure() -> None:
     assert metrics.foot_skate(clips, FOOT_JOINTS, FPS) == pytest.approx(expected, rel=1e-9)
 
 
+@pytest.mark.requires_prepared_data
 def test_foot_skate_matches_the_dataset_figure() -> None:
-    if not (PROCESSED / "clips.npz").is_file():
-        pytest.skip("data/processed not found (run ardy-export data prepare)")
     from ardy_export.data.dataset import load_clips
 
-    features = [c.features for c in load_clips(PROCESSED)]
+    features = [c.features for c in load_clips(processed_dir())]
     expected = contacts.foot_skate(features)
     fps = load_data_config().fps
     positions = [positions_from_features(f) for f in features]

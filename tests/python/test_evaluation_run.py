@@ -14,9 +14,8 @@ from ardy_export.models import layout as L
 from ardy_export.training.synthetic import rotate_features_yaw, synthetic_clip
 
 
-def _cli(repo_root: Path) -> Path:
-    # scripts/test.sh builds the CLI before pytest runs; without it this is a set-up error.
-    return find_cli(str(repo_root / "build/template_debug/src/ardy-generate"))
+def _cli(build: Path) -> Path:
+    return find_cli(str(build / "src" / "ardy-generate"))
 
 
 def _walk(seconds: float = 6.0) -> np.ndarray:
@@ -75,8 +74,9 @@ def test_midpoint_error_tells_passing_through_from_jumping() -> None:
     assert run._midpoint_error(jumped, target, [20]) == pytest.approx(0.5)
 
 
-def test_cli_runner_runs_the_tiny_package(repo_root: Path) -> None:
-    runner = CliRunner(_cli(repo_root), repo_root / "tests/data/tiny_package", workers=2)
+@pytest.mark.requires_build
+def test_cli_runner_runs_the_tiny_package(repo_root: Path, build: Path) -> None:
+    runner = CliRunner(_cli(build), repo_root / "tests/data/tiny_package", workers=2)
     waypoint = {"type": "waypoint", "frame": 30, "x": 1.5, "z": 2.0}
     jobs = [
         Job({"prompts": [{"time": 0, "text": "a person walks"}], "constraints": [waypoint]}, 3.0),
@@ -99,8 +99,9 @@ def test_cli_runner_runs_the_tiny_package(repo_root: Path) -> None:
     assert np.abs(offsets - offsets[0]).max() < 2e-3
 
 
-def test_cli_runner_reports_a_failing_timeline(repo_root: Path) -> None:
-    runner = CliRunner(_cli(repo_root), repo_root / "tests/data/tiny_package")
+@pytest.mark.requires_build
+def test_cli_runner_reports_a_failing_timeline(repo_root: Path, build: Path) -> None:
+    runner = CliRunner(_cli(build), repo_root / "tests/data/tiny_package")
     bad = Job(
         {"constraints": [{"type": "joint", "time": 1, "joint": "Tail", "position": [0, 1, 0]}]}, 2.0
     )

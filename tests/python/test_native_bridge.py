@@ -10,19 +10,20 @@ from pathlib import Path
 
 import pytest
 
-BUILD = Path("build/template_debug")  # scripts/test.sh builds it before the Python suites
 TINY = Path("tests/data/tiny_package")
+# Every test here packs the built runtime (scripts/test.sh builds it first).
+pytestmark = pytest.mark.requires_build
 
 
 @pytest.fixture(scope="module")
-def bridge(repo_root: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+def bridge(repo_root: Path, build: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("dist")
     result = subprocess.run(
         [
             "bash",
             "scripts/package_native.sh",
             "--build",
-            str(BUILD),
+            str(build),
             "--out",
             str(out),
             "--no-model",

@@ -22,8 +22,8 @@ def package(repo_root: Path) -> Path:
 
 
 @pytest.fixture(scope="module")
-def runner(repo_root: Path, package: Path) -> CliRunner:
-    cli = find_cli(str(repo_root / "build/template_debug/src/ardy-generate"))
+def runner(build: Path, package: Path) -> CliRunner:
+    cli = find_cli(str(build / "src" / "ardy-generate"))
     return CliRunner(cli, package, threads=1, workers=2)
 
 
@@ -57,6 +57,7 @@ def _prompt(text: str, seed: int, seconds: float = 6.0) -> Job:
     return Job({"prompts": [{"time": 0.0, "text": text}]}, seconds, seed=seed)
 
 
+@pytest.mark.requires_build
 def test_prompts_change_the_motion(runner: CliRunner) -> None:
     seeds = (0, 1, 2)
     texts = (
@@ -84,6 +85,7 @@ def test_prompts_change_the_motion(runner: CliRunner) -> None:
     assert run > 1.5 * walk
 
 
+@pytest.mark.requires_build
 def test_a_prompt_change_switches_the_action_within_two_seconds(runner: CliRunner) -> None:
     job = Job(
         {
