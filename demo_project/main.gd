@@ -1,44 +1,71 @@
 extends Node3D
-## Demo entry point. For now it shows whether the ARDY extension and the
-## shipped default model load; the playable demo (prompts, clicks, keys)
-## replaces it.
+## Demo entry point, for now: a stick figure driven by a MotionGenerator with
+## the shipped model, walking and then waving. Headless (no display) it plays
+## a few seconds, reports how far the character walked and quits.
 
 const DEFAULT_MODEL := "res://addons/ardy/models/default"
+const HEADLESS_SECONDS := 4.0
+
+var generator: MotionGenerator
+var start := Vector3.INF
+var hips := Vector3.INF
 
 @onready var status_label: Label = $UI/Status
+@onready var character: Node3D = $Character
 
 
 func _ready() -> void:
-	var loaded := ClassDB.class_exists("MotionGenerator")
-	var lines: PackedStringArray = []
-	if loaded:
-		lines.append("ARDY extension loaded: MotionGenerator is available.")
-		var model_line := _load_default_model()
-		loaded = not model_line.begins_with("NOT")
-		lines.append(model_line)
-	else:
-		lines.append("ARDY extension NOT loaded: build it with scripts/demo.sh.")
-	var message := "\n".join(lines)
+	if not ClassDB.class_exists("MotionGenerator"):
+		_report("ARDY extension NOT loaded: build it with scripts/demo.sh.", false)
+		return
+	var skeleton := StickFigure.build(DEFAULT_MODEL)
+	character.add_child(skeleton)
+	# Generated poses exist in the skeleton's update (modifiers are not kept
+	# in the bone poses), so read them when it has finished.
+	skeleton.skeleton_updated.connect(
+		func() -> void: hips = skeleton.global_transform * skeleton.get_bone_global_pose(0).origin
+	)
+	generator = MotionGenerator.new()
+	generator.skeleton = NodePath("../Skeleton3D")
+	generator.prompt = "walk forward"
+	generator.playing = true
+	generator.generation_failed.connect(func(message: String) -> void: _report(message, false))
+	character.add_child(generator)
+	generator.queue_prompt("wave with the right hand", 6.0)
+	generator.queue_prompt("walk forward", 10.0)
+
+
+func _process(_delta: float) -> void:
+	if generator == null or not generator.is_generating():
+		status_label.text = "Loading the model..."
+		return
+	if hips == Vector3.INF:
+		return
+	if start == Vector3.INF:
+		start = hips
+	var stats := generator.get_stats()
+	status_label.text = (
+		"%s  |  t = %.1f s  |  window %.0f ms  |  buffered %.2f s"
+		% [
+			generator.prompt,
+			generator.get_time(),
+			stats["last_latency_ms"],
+			stats["buffered_seconds"]
+		]
+	)
+	if DisplayServer.get_name() == "headless" and generator.get_time() >= HEADLESS_SECONDS:
+		var walked := Vector2(hips.x - start.x, hips.z - start.z).length()
+		_report(
+			"Demo: the character walked %.2f m in %.0f s." % [walked, HEADLESS_SECONDS],
+			walked > 1.0
+		)
+
+
+func _report(message: String, ok: bool) -> void:
 	status_label.text = message
-	if loaded:
+	if ok:
 		print(message)
 	else:
 		printerr(message)
 	if DisplayServer.get_name() == "headless":
-		get_tree().quit(0 if loaded else 1)
-
-
-func _load_default_model() -> String:
-	var generator: Node = ClassDB.instantiate("MotionGenerator")
-	add_child(generator)
-	var ok: bool = generator.call("load_model", DEFAULT_MODEL)
-	var line := (
-		(
-			"Default model loaded: %d joints, graphs %s."
-			% [generator.call("get_joint_names").size(), generator.call("get_loaded_graphs")]
-		)
-		if ok
-		else "NOT loaded: the default model (%s)" % generator.call("get_last_error")
-	)
-	generator.queue_free()
-	return line
+		get_tree().quit(0 if ok else 1)

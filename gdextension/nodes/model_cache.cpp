@@ -2,6 +2,7 @@
 
 #include "godot/ref.hpp"
 
+#include <atomic>
 #include <map>
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -31,7 +32,9 @@ std::string read_engine_file(const std::string &path) {
 
 struct LoadThread {
 	std::thread thread;
-	std::shared_ptr<SharedModel> model;  // held until the thread is joined
+	// Set by the thread as it ends; the thread holds the model only while it
+	// loads, so a model nobody wants any more is freed at once.
+	std::shared_ptr<std::atomic<bool>> finished;
 };
 
 struct Registry {
@@ -43,7 +46,7 @@ struct Registry {
 	// Joins the loads that have ended (under mutex).
 	void reap() {
 		for (auto it = loads.begin(); it != loads.end();) {
-			if (it->model->is_done()) {
+			if (it->finished->load()) {
 				it->thread.join();
 				it = loads.erase(it);
 			} else {
@@ -136,7 +139,13 @@ std::shared_ptr<SharedModel> acquire_model(const std::string &path) {
 		environment = OnnxEnvironment::create();
 		reg.environment = environment;
 	}
-	reg.loads.push_back({ std::thread(load, model, std::move(environment)), model });
+	auto finished = std::make_shared<std::atomic<bool>>(false);
+	std::thread thread([model, environment = std::move(environment), finished]() mutable {
+		load(model, std::move(environment));
+		model.reset();
+		finished->store(true);
+	});
+	reg.loads.push_back({ std::move(thread), std::move(finished) });
 	return model;
 }
 

@@ -792,7 +792,6 @@ void MotionGenerator::clear_goal_lists() {
 	joint_targets_.clear();
 	keyframes_.clear();
 	keyframe_resources_ = Array();
-	queued_prompts_.clear();
 }
 
 void MotionGenerator::submit_world_goals() {
@@ -844,6 +843,7 @@ void MotionGenerator::reset(const Variant &pose) {
 		}
 		stop_planner();
 		clear_goal_lists();
+		queued_prompts_.clear();
 		if (package_ && is_active()) {
 			start_planner(initial_history);
 		}

@@ -23,6 +23,8 @@ rm -rf "$PROJECT/addons" "$PROJECT/fixtures"
 mkdir -p "$PROJECT/addons" "$PROJECT/fixtures/model"
 cp -r "$ADDON" "$PROJECT/addons/"
 cp "$ROOT/tests/data/foundation/mlp.onnx" "$PROJECT/fixtures/mlp.onnx"
+# The README, whose "Using the node" snippet test_readme.gd runs.
+cp "$ROOT/README.md" "$PROJECT/fixtures/README.md"
 # The tiny test package (model.json, graphs, vocabulary) as a model folder.
 cp "$ROOT"/tests/data/tiny_package/{model.json,*.onnx,vocab.txt} "$PROJECT/fixtures/model/"
 

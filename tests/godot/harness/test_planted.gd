@@ -22,16 +22,16 @@ func test_pass_plain() -> void:
 
 # PASS: an engine error that the test declared.
 func test_pass_expected_error() -> void:
-	var generator := MotionGenerator.new()
-	expect_error("res://fixtures/missing.onnx")
-	check(not generator.load_model("res://fixtures/missing.onnx"), "a missing model is refused")
+	expect_error("res://fixtures/missing/model.json")
+	var generator: MotionGenerator = await _load("res://fixtures/missing")
+	check(not generator.is_model_loaded(), "a missing model is refused")
 	generator.free()
 
 
 # FAIL (script error): the test stops at the error and reaches no check.
 func test_fail_script_error() -> void:
 	var nothing: Variant = null
-	nothing.load_model(TINY_MODEL)
+	nothing.reset()
 	check(true, "never reached")
 
 
@@ -68,26 +68,36 @@ func test_fail_check() -> void:
 # FAIL (resident memory): one shipped default package leaked among LOADS loads
 # of the tiny one; the engine's own counter grows by a node, far below its bound.
 func test_fail_leaked_default_package() -> void:
-	_leak_one(DEFAULT_MODEL)
+	await _leak_one(DEFAULT_MODEL)
 
 
 # FAIL (resident memory): the same with the tiny test package.
 func test_fail_leaked_tiny_package() -> void:
-	_leak_one(TINY_MODEL)
+	await _leak_one(TINY_MODEL)
+
+
+# A generator in the tree with the model at `path`, once it has loaded (or failed).
+func _load(path: String) -> MotionGenerator:
+	var generator := MotionGenerator.new()
+	generator.model_path = path
+	generator.playing = true
+	tree.root.add_child(generator)
+	while not generator.is_model_loaded() and generator.get_last_error().is_empty():
+		await tree.process_frame
+	return generator
 
 
 func _leak_one(path: String) -> void:
-	var generator := MotionGenerator.new()
-	generator.load_model(TINY_MODEL)  # warm up, as test_memory.gd does
+	(await _load(TINY_MODEL)).free()  # warm up, as test_lifecycle.gd does
 	var resident_before := resident_bytes()
 	var memory_before := OS.get_static_memory_usage()
 	for i in LOADS:
-		generator.load_model(TINY_MODEL)
-	var leaked := MotionGenerator.new()
-	check(leaked.load_model(path), "the leaked package loads: " + leaked.get_last_error())
+		(await _load(TINY_MODEL)).free()
+	var leaked: MotionGenerator = await _load(path)
+	check(leaked.is_model_loaded(), "the leaked package loads: " + leaked.get_last_error())
+	tree.root.remove_child(leaked)  # an orphan node holding its package: the leak
 	_leaked.append(leaked)
 	var growth := OS.get_static_memory_usage() - memory_before
 	print("  planted leak of %s: tracked memory %+d bytes" % [path, growth])
 	check(growth < 8 * 1024, "tracked memory grew by %d bytes" % growth)
 	check_resident_growth(resident_before, "%d loads and one leaked package" % LOADS)
-	generator.free()

@@ -1,9 +1,7 @@
 extends Node
 ## Main scene of the exported .pck: proves that the packed game loads the
-## extension and reads a model graph, the tiny test package and the shipped
-## default model from res:// inside the pack.
-
-const DEFAULT_MODEL := "res://addons/ardy/models/default"
+## extension and generates motion with the shipped default model read from
+## res:// inside the pack.
 
 var passed := 0
 var failed := 0
@@ -13,37 +11,33 @@ func _ready() -> void:
 	_check(
 		ClassDB.class_exists("MotionGenerator"), "the extension is loaded from the exported pack"
 	)
-	_check(FileAccess.file_exists("res://fixtures/mlp.onnx"), "the graph is inside the pack")
+	_check(
+		FileAccess.file_exists(TestCharacter.MODEL.path_join("denoiser.onnx")),
+		"the shipped model is inside the pack"
+	)
 	_check(
 		not FileAccess.file_exists("res://tests/test_memory.gd"),
 		"the export filter left the tests out"
 	)
 	if ClassDB.class_exists("MotionGenerator"):
-		var generator: Node = ClassDB.instantiate("MotionGenerator")
-		var loaded: bool = generator.call("load_model", "res://fixtures/mlp.onnx")
-		_check(
-			loaded,
-			"load_model reads the graph from the pack: " + str(generator.call("get_last_error"))
-		)
-		loaded = generator.call("load_model", "res://fixtures/model")
-		_check(
-			loaded,
-			(
-				"load_model reads a model package from the pack: "
-				+ str(generator.call("get_last_error"))
-			)
-		)
-		loaded = generator.call("load_model", DEFAULT_MODEL)
-		_check(
-			loaded and generator.call("get_joint_names").size() == 21,
-			(
-				"load_model reads the shipped default model from the pack: "
-				+ str(generator.call("get_last_error"))
-			)
-		)
-		generator.free()
+		await _generate()
 	print("%d passed, %d failed" % [passed, failed])
 	get_tree().quit(failed)
+
+
+func _generate() -> void:
+	var character := TestCharacter.new(null, self)
+	character.generator.prompt = "walk forward"
+	character.generator.playing = true
+	var started: bool = await character.wait_until_generating(get_tree())
+	_check(started, "the model loads from the pack: " + character.generator.get_last_error())
+	if not started:
+		return
+	await character.wait_until_time(get_tree(), 2.0)
+	var moved := character.position_at("Hips", 0.05).distance_to(character.last_position("Hips"))
+	print("pack: the hips moved %.2f m in 2 s" % moved)
+	_check(moved > 0.5, "the packed game generates motion: the hips moved %.2f m in 2 s" % moved)
+	character.dispose()
 
 
 func _check(condition: bool, what: String) -> void:

@@ -12,6 +12,8 @@ var generator: MotionGenerator
 ## One entry per skeleton update: {"time": motion clock, "bones": {name: Vector3}}.
 var samples: Array[Dictionary] = []
 var watched: PackedStringArray = ["Hips", "Hand_R", "UpperArm_R", "Head"]
+## Off for tests that measure memory: the samples grow with every frame.
+var recording := true
 
 
 func _init(rig: Skeleton3D = null, parent: Node = null) -> void:
@@ -29,11 +31,15 @@ func _init(rig: Skeleton3D = null, parent: Node = null) -> void:
 
 
 func _record() -> void:
+	if not recording:
+		return
 	var bones := {}
 	for bone_name in watched:
 		var bone := skeleton.find_bone(bone_name)
 		if bone >= 0:
-			bones[bone_name] = skeleton.global_transform * skeleton.get_bone_global_pose(bone).origin
+			bones[bone_name] = (
+				skeleton.global_transform * skeleton.get_bone_global_pose(bone).origin
+			)
 	samples.append({"time": generator.get_time(), "bones": bones})
 
 

@@ -78,14 +78,34 @@ static func humanoid_rig(model_path: String, scale: float, twist: float) -> Skel
 		var parent: int = skeleton_data["parents"][i]
 		if joints[i] == "Neck" or joints[i] == "Shoulder_L" or joints[i] == "Shoulder_R":
 			if not index.has("UpperChest"):
-				_add(skeleton, index, "UpperChest", index["Chest"], frames[2], positions[2], frames[2], positions[2])
+				_add(
+					skeleton,
+					index,
+					"UpperChest",
+					index["Chest"],
+					frames[2],
+					positions[2],
+					frames[2],
+					positions[2]
+				)
 			var upper: int = index["UpperChest"]
-			_add(skeleton, index, bone_name, upper, frames[2], positions[2], frames[i], positions[i])
+			_add(
+				skeleton, index, bone_name, upper, frames[2], positions[2], frames[i], positions[i]
+			)
 			continue
 		var parent_frame := Basis() if parent < 0 else frames[parent]
 		var parent_position := Vector3.ZERO if parent < 0 else positions[parent]
 		var parent_index: int = -1 if parent < 0 else index[HUMANOID_NAMES[joints[parent]]]
-		_add(skeleton, index, bone_name, parent_index, parent_frame, parent_position, frames[i], positions[i])
+		_add(
+			skeleton,
+			index,
+			bone_name,
+			parent_index,
+			parent_frame,
+			parent_position,
+			frames[i],
+			positions[i]
+		)
 	var hand: int = index["LeftHand"]
 	_add(
 		skeleton,
@@ -116,5 +136,7 @@ static func _add(
 	index[bone_name] = bone
 	if parent >= 0:
 		skeleton.set_bone_parent(bone, parent)
-	var rest := Transform3D(parent_frame.inverse() * frame, parent_frame.inverse() * (position - parent_position))
+	var rest := Transform3D(
+		parent_frame.inverse() * frame, parent_frame.inverse() * (position - parent_position)
+	)
 	skeleton.set_bone_rest(bone, rest)

@@ -24,9 +24,13 @@ func test_walk_moves_the_hips_and_wave_keeps_them() -> void:
 	var character := await _start("walk forward")
 	var generator := character.generator
 	var started := {}
-	generator.prompt_started.connect(func(text: String) -> void: started[text] = generator.get_time())
+	generator.prompt_started.connect(
+		func(text: String) -> void: started[text] = generator.get_time()
+	)
 	check(await character.wait_until_time(tree, 3.0), "the motion clock reached 3 s")
-	var travel := _ground_distance(character.position_at("Hips", 0.05), character.position_at("Hips", 3.0))
+	var travel := _ground_distance(
+		character.position_at("Hips", 0.05), character.position_at("Hips", 3.0)
+	)
 	print(
 		(
 			"  walk: hips travelled %.2f m in 3 s; main thread %.1f us per frame for one character"
@@ -40,7 +44,10 @@ func test_walk_moves_the_hips_and_wave_keeps_them() -> void:
 	check(await character.wait_until_time(tree, changed_at + 5.0), "5 s more of waving")
 	var response: float = started.get("wave with the right hand", INF) - changed_at
 	print("  wave: the prompt reached the motion after %.2f s" % response)
-	check(response <= 1.0, "the new prompt reached the motion after %.2f s, expected at most 1 s" % response)
+	check(
+		response <= 1.0,
+		"the new prompt reached the motion after %.2f s, expected at most 1 s" % response
+	)
 	var hand_above := 0
 	var counted := 0
 	for sample in character.samples:
@@ -51,7 +58,12 @@ func test_walk_moves_the_hips_and_wave_keeps_them() -> void:
 			hand_above += 1
 	var settled := character.position_at("Hips", changed_at + 2.0)
 	var drift := _ground_distance(settled, character.last_position("Hips"))
-	print("  wave: right hand above the shoulder in %d of %d frames, hips moved %.2f m" % [hand_above, counted, drift])
+	print(
+		(
+			"  wave: right hand above the shoulder in %d of %d frames, hips moved %.2f m"
+			% [hand_above, counted, drift]
+		)
+	)
 	check(hand_above > 0, "the right hand rose above the shoulder while waving")
 	check(drift < 0.5, "the hips moved %.2f m while waving, expected less than 0.5 m" % drift)
 	character.dispose()
@@ -100,7 +112,12 @@ func test_curve_path_is_followed() -> void:
 		total += _ground_distance(hips, on_curve)
 		count += 1
 	var mean := total / maxi(count, 1)
-	print("  path of %.1f m: mean distance from the curve %.3f m over %d frames" % [curve.get_baked_length(), mean, count])
+	print(
+		(
+			"  path of %.1f m: mean distance from the curve %.3f m over %d frames"
+			% [curve.get_baked_length(), mean, count]
+		)
+	)
 	check(count > 0 and mean < 0.25, "mean path error %.3f m, expected under 0.25 m" % mean)
 	character.dispose()
 
@@ -121,7 +138,9 @@ func test_target_velocity_steers_turns_and_runs() -> void:
 	check(await character.wait_until_time(tree, set_at + 3.0), "3 s of steering")
 	var walk := _velocity(character, set_at + 2.0, set_at + 3.0)
 	print("  target 1.2 m/s along -X: %.2f m/s, direction %s" % [walk.length(), walk.normalized()])
-	check(absf(walk.length() - 1.2) <= 0.36, "speed %.2f m/s, expected 1.2 +- 30 %%" % walk.length())
+	check(
+		absf(walk.length() - 1.2) <= 0.36, "speed %.2f m/s, expected 1.2 +- 30 %%" % walk.length()
+	)
 	check(walk.normalized().dot(Vector3(-1, 0, 0)) > 0.9, "moving along -X: %s" % walk)
 
 	# A 90 degree turn: the hips' direction of travel follows within 0.8 s.
@@ -137,7 +156,10 @@ func test_target_velocity_steers_turns_and_runs() -> void:
 			break
 		t += 0.05
 	print("  turn by 90 degrees: heading within 30 degrees after %.2f s" % turn_time)
-	check(turn_time <= 0.8, "turned within 30 degrees after %.2f s, expected at most 0.8 s" % turn_time)
+	check(
+		turn_time <= 0.8,
+		"turned within 30 degrees after %.2f s, expected at most 0.8 s" % turn_time
+	)
 
 	generator.prompt = "run"
 	generator.target_velocity = Vector3(0, 0, 2.5)
@@ -145,7 +167,10 @@ func test_target_velocity_steers_turns_and_runs() -> void:
 	check(await character.wait_until_time(tree, run_at + 3.0), "3 s of running")
 	var run := _velocity(character, run_at + 2.0, run_at + 3.0)
 	print("  run at 2.5 m/s: %.2f m/s" % run.length())
-	check(absf(run.length() - 2.5) <= 0.625, "running at %.2f m/s, expected 2.5 +- 25 %%" % run.length())
+	check(
+		absf(run.length() - 2.5) <= 0.625,
+		"running at %.2f m/s, expected 2.5 +- 25 %%" % run.length()
+	)
 	character.dispose()
 
 
@@ -276,7 +301,10 @@ func test_second_rig_gets_the_same_motion() -> void:
 	var height_reference: float = sample_reference["Hips"].y
 	print(
 		(
-			"  second rig: %d bones, worst direction difference %.2f degrees, hips height %.3f vs %.3f (ratio %.3f)"
+			(
+				"  second rig: %d bones, worst direction difference %.2f degrees,"
+				+ " hips height %.3f vs %.3f (ratio %.3f)"
+			)
 			% [compared, worst, height_other, height_reference, height_other / height_reference]
 		)
 	)
@@ -284,7 +312,10 @@ func test_second_rig_gets_the_same_motion() -> void:
 	check(worst < 10.0, "bone directions differ by up to %.2f degrees, expected under 10" % worst)
 	check(
 		absf(height_other / height_reference - 1.25) < 0.02,
-		"hips height scaled by %.3f, expected the leg ratio 1.25" % (height_other / height_reference)
+		(
+			"hips height scaled by %.3f, expected the leg ratio 1.25"
+			% (height_other / height_reference)
+		)
 	)
 	reference.dispose()
 	other.dispose()
@@ -356,7 +387,9 @@ func test_character_body_is_stopped_by_a_wall_and_still_reaches_a_waypoint() -> 
 
 
 func test_fifty_characters_share_one_worker_without_underruns() -> void:
-	var prompts := ["walk", "run", "wave with the right hand", "walk like an old man", "jump", "dance"]
+	var prompts := [
+		"walk", "run", "wave with the right hand", "walk like an old man", "jump", "dance"
+	]
 	var crowd: Array[TestCharacter] = []
 	for i in 50:
 		var character := TestCharacter.new(null, tree.root)
@@ -399,16 +432,32 @@ func test_fifty_characters_share_one_worker_without_underruns() -> void:
 	var per_character := main_thread_usec / maxf(1.0, float(frames / 30) * crowd.size())
 	print(
 		(
-			"  50 characters, 20 s (%.1f s of frame deltas): %.1f s played each, underrun %.2f %% of played time, largest batch %d, %d frames, main thread %.1f us per character per frame"
-			% [engine_seconds, played / crowd.size(), 100.0 * underrun / played, largest_batch, frames, per_character]
+			(
+				"  50 characters, 20 s (%.1f s of frame deltas): %.1f s played each,"
+				+ " underrun %.2f %% of played time, largest batch %d, %d frames,"
+				+ " main thread %.1f us per character per frame"
+			)
+			% [
+				engine_seconds,
+				played / crowd.size(),
+				100.0 * underrun / played,
+				largest_batch,
+				frames,
+				per_character
+			]
 		)
 	)
 	check(
 		played / crowd.size() > 0.95 * engine_seconds,
 		"each character played %.1f s of %.1f s" % [played / crowd.size(), engine_seconds]
 	)
-	print("  (before the 20 s: %.2f s of underrun over the crowd while it started)" % underrun_before)
-	check(underrun / played < 0.02, "underrun %.2f %% of played time, expected under 2 %%" % (100.0 * underrun / played))
+	print(
+		"  (before the 20 s: %.2f s of underrun over the crowd while it started)" % underrun_before
+	)
+	check(
+		underrun / played < 0.02,
+		"underrun %.2f %% of played time, expected under 2 %%" % (100.0 * underrun / played)
+	)
 	check(largest_batch > 1, "windows were batched (largest batch %d)" % largest_batch)
 	for character in crowd:
 		character.dispose()

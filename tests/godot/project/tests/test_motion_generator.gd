@@ -15,7 +15,9 @@ func test_instanced_from_gdscript() -> void:
 	check_eq(generator.skeleton, NodePath(), "default skeleton")
 	check_eq(generator.prompt, "", "default prompt")
 	check_eq(generator.playing, false, "default playing")
-	check_eq(generator.is_model_loaded(), false, "nothing loads before the node is playing in the tree")
+	check_eq(
+		generator.is_model_loaded(), false, "nothing loads before the node is playing in the tree"
+	)
 	generator.free()
 
 
@@ -29,6 +31,8 @@ func test_instanced_from_scene_and_ready_loads_model() -> void:
 	check_eq(generator.playing, true, "playing from .tscn")
 	var loaded := [false]
 	generator.model_loaded.connect(func() -> void: loaded[0] = true)
+	# The scene's skeleton has no bones: said once, by name.
+	expect_error("the model's root joint 'Hips' has no bone in the rig")
 	tree.root.add_child(character)
 	check(not generator.is_model_loaded(), "loading happens in the background, not in _ready")
 	# _ready (a virtual override) starts loading model_path because playing is on.
@@ -119,6 +123,7 @@ func test_default_arguments_from_typed_and_untyped_gdscript() -> void:
 	generator.callv("add_waypoint", [Vector3(4, 0, 2), 4.0, 0.5])
 	check_eq(messages.size(), 0, "no failure: " + str(messages))
 	# position and rotation default to null: a target with neither is refused by name.
+	expect_error("add_joint_target")
 	generator.add_joint_target("Hand_R", 1.0)
 	check_eq(messages.size(), 1, "one failure")
 	check(generator.get_last_error().contains("add_joint_target"), generator.get_last_error())
@@ -129,6 +134,7 @@ func test_bad_inputs_are_reported_once_and_change_nothing() -> void:
 	var generator := MotionGenerator.new()
 	var messages: Array[String] = []
 	generator.generation_failed.connect(func(message: String) -> void: messages.append(message))
+	expect_error("MotionGenerator: ", 12)
 	generator.prompt = "walk"
 	generator.prompt = "x".repeat(5000)
 	check_eq(generator.prompt, "walk", "an over-long prompt leaves the prompt")
@@ -159,7 +165,10 @@ func test_bad_inputs_are_reported_once_and_change_nothing() -> void:
 		"target_velocity",
 	]
 	for i in mini(messages.size(), expected.size()):
-		check(messages[i].contains(expected[i]), "message %d names %s: %s" % [i, expected[i], messages[i]])
+		check(
+			messages[i].contains(expected[i]),
+			"message %d names %s: %s" % [i, expected[i], messages[i]]
+		)
 	check_eq(generator.steps, 0, "steps unchanged")
 	check_eq(generator.history_seconds, 4.0, "history_seconds unchanged")
 	check_eq(generator.target_velocity, Vector3.ZERO, "target_velocity unchanged")
@@ -170,6 +179,7 @@ func test_missing_model_fails_once_with_the_path() -> void:
 	var generator := MotionGenerator.new()
 	var messages: Array[String] = []
 	generator.generation_failed.connect(func(message: String) -> void: messages.append(message))
+	expect_error("res://fixtures/no_such_folder/model.json': File not found")
 	generator.model_path = "res://fixtures/no_such_folder"
 	generator.playing = true
 	tree.root.add_child(generator)
@@ -204,14 +214,18 @@ func test_bad_model_keeps_the_previous_one() -> void:
 		else:
 			copy.store_buffer(bytes)
 		copy.close()
+	expect_error("tokens.token_dim is 30")
 	generator.model_path = broken
 	check(await _wait_for(func() -> bool: return messages.size() == 1), "the broken package fails")
 	check(generator.get_last_error().contains("tokens.token_dim"), generator.get_last_error())
 	check(generator.is_model_loaded(), "the good package stays loaded")
 	check_eq(generator.get_joint_names().size(), 21, "and its skeleton")
 	# A folder without model.json says so.
+	expect_error("res://scenes/model.json")
 	generator.model_path = "res://scenes"
-	check(await _wait_for(func() -> bool: return messages.size() == 2), "no package in res://scenes")
+	check(
+		await _wait_for(func() -> bool: return messages.size() == 2), "no package in res://scenes"
+	)
 	check(generator.get_last_error().contains("model.json"), generator.get_last_error())
 	check(generator.is_model_loaded(), "still the good package")
 	generator.free()
