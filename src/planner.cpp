@@ -7,6 +7,7 @@
 #include <limits>
 #include <utility>
 
+#include "joint_reach.hpp"
 #include "kinematics.hpp"
 #include "motion_filter.hpp"
 #include "timeline.hpp"
@@ -964,8 +965,8 @@ bool Planner::publish(int64_t start, bool splice, size_t tokens, Rollout before,
 
   // Foot locking (foot_lock.hpp) on what is shown, from the state of the
   // frame before `start`.
-  std::vector<FootLockState> foot_states;
-  if (foot_locker_) {
+  // The steps below change the shown motion: a copy of the model's first.
+  const auto writable_motion = [&] {
     if (motion != &filtered_motion) {
       const size_t values = count * joints_;
       filtered_motion.frame_count = count;
@@ -978,6 +979,10 @@ bool Planner::publish(int64_t start, bool splice, size_t tokens, Rollout before,
                                        motion->positions.begin() + static_cast<std::ptrdiff_t>(values));
       motion = &filtered_motion;
     }
+  };
+  std::vector<FootLockState> foot_states;
+  if (foot_locker_) {
+    writable_motion();
     FootLockState state;
     if (const Segment* before_start = segment_before(start)) {
       const auto at = static_cast<size_t>(start - 1 - before_start->start);
@@ -985,6 +990,22 @@ bool Planner::publish(int64_t start, bool splice, size_t tokens, Rollout before,
     }
     const float* goal_mask = result->goal_mask.empty() ? nullptr : result->goal_mask.data();
     foot_locker_->apply(shown, filtered_motion, state, &foot_states, goal_mask);
+  }
+
+  // Joint position targets reached by IK (joint_reach.hpp) on what is shown.
+  if (config_.joint_reach) {
+    std::vector<JointTarget> targets;
+    for (const auto& entry : master_->constraints) {
+      const auto* target = std::get_if<JointTarget>(&entry.second);
+      if (target && target->position && target->frame + kReachFadeFrames >= start &&
+          target->frame - kReachFadeFrames < start + static_cast<int64_t>(count)) {
+        targets.push_back(*target);
+      }
+    }
+    if (!targets.empty()) {
+      writable_motion();
+      JointReach(p.skeleton()).apply(start, filtered_motion, targets);
+    }
   }
 
   auto block = std::make_shared<FrameBlock>();

@@ -110,6 +110,9 @@ struct PlannerConfig {
   std::optional<double> output_smoothing_frames;
   // Foot locking (foot_lock.hpp) on the frames shown: planted feet stay put.
   bool foot_lock = true;
+  // Joint position targets reached by two-bone IK on the frames shown
+  // (joint_reach.hpp): the joint is at its target at the target's frame.
+  bool joint_reach = true;
   std::optional<bool> interpolate_root;           // GoalSpec::interpolate_root; default: the package's
   double max_root_speed = kDefaultMaxRootSpeed;   // GoalSpec::max_root_speed (m/s; 0: no limit)
   glm::dvec2 start_xz{0.0, 0.0};              // where the character starts (without initial_history)
