@@ -33,6 +33,7 @@ void deinitialize(void *, GDExtensionInitializationLevel level) {
 	if (level == GDEXTENSION_INITIALIZATION_SCENE) {
 		ardy::shut_down_model_loads();
 		ClassDB::unregister_all();
+		internal::release_singleton_wrappers();
 	}
 }
 

@@ -294,12 +294,24 @@ Error FileAccess::get_error() const {
 	return static_cast<Error>(call_engine<int64_t>(ARDY_ENGINE_METHOD(FileAccess, get_error), _owner));
 }
 
+namespace {
+Engine *engine_singleton = nullptr;
+} // namespace
+
 Engine *Engine::get_singleton() {
-	static Engine *singleton = [] {
+	if (engine_singleton == nullptr) {
 		StringName name("Engine");
-		return object_from_owner<Engine>(gde.global_get_singleton(name.native_ptr()));
-	}();
-	return singleton;
+		engine_singleton = object_from_owner<Engine>(gde.global_get_singleton(name.native_ptr()));
+	}
+	return engine_singleton;
+}
+
+void internal::release_singleton_wrappers() {
+	// The engine outlives this library: our wrapper must go while our code is loaded.
+	if (engine_singleton != nullptr) {
+		gde.object_free_instance_binding(engine_singleton->_owner, gde.token);
+		engine_singleton = nullptr;
+	}
 }
 
 bool Engine::is_editor_hint() const {

@@ -157,6 +157,12 @@ public:
 	bool is_editor_hint() const;
 };
 
+namespace internal {
+// Frees our wrappers of engine singletons (they outlive the extension). Called
+// when the extension is unloaded.
+void release_singleton_wrappers();
+} // namespace internal
+
 // The live object with this instance id, or nullptr once it is freed.
 Object *object_from_instance_id(uint64_t id);
 

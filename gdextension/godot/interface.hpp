@@ -41,6 +41,7 @@ namespace godot::internal {
 	X(object_get_instance_from_id, ObjectGetInstanceFromId, "object_get_instance_from_id")      \
 	X(global_get_singleton, GlobalGetSingleton, "global_get_singleton")                          \
 	X(object_get_instance_binding, ObjectGetInstanceBinding, "object_get_instance_binding")      \
+	X(object_free_instance_binding, ObjectFreeInstanceBinding, "object_free_instance_binding")   \
 	X(object_set_instance_binding, ObjectSetInstanceBinding, "object_set_instance_binding")      \
 	X(object_set_instance, ObjectSetInstance, "object_set_instance")                             \
 	X(object_cast_to, ObjectCastTo, "object_cast_to")                                            \

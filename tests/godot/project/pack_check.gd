@@ -11,10 +11,11 @@ func _ready() -> void:
 	_check(
 		ClassDB.class_exists("MotionGenerator"), "the extension is loaded from the exported pack"
 	)
-	_check(
-		FileAccess.file_exists(TestCharacter.MODEL.path_join("denoiser.onnx")),
-		"the shipped model is inside the pack"
-	)
+	for file in ["denoiser.onnx", "model.json", "vocab.txt", "LICENSE.md"]:
+		_check(
+			FileAccess.file_exists(TestCharacter.MODEL.path_join(file)),
+			"the addon's export plugin packed the shipped model's " + file
+		)
 	_check(
 		not FileAccess.file_exists("res://tests/test_memory.gd"),
 		"the export filter left the tests out"
