@@ -1,17 +1,21 @@
 extends Node3D
 ## Demo entry point, for now: a stick figure driven by a MotionGenerator with
-## the shipped model, walking and then waving. Headless (no display) it plays
-## a few seconds, reports how far the character walked and quits.
+## the shipped model, walking, then waving, then walking again, followed by
+## the camera. Headless (no display) it plays a few seconds, reports how far
+## the character walked and quits.
 
 const DEFAULT_MODEL := "res://addons/ardy/models/default"
 const HEADLESS_SECONDS := 4.0
+const CAMERA_OFFSET := Vector3(-1.8, 0.9, 2.2)
 
 var generator: MotionGenerator
 var start := Vector3.INF
 var hips := Vector3.INF
+var shown_prompt := ""
 
 @onready var status_label: Label = $UI/Status
 @onready var character: Node3D = $Character
+@onready var camera: Camera3D = $Camera3D
 
 
 func _ready() -> void:
@@ -30,28 +34,27 @@ func _ready() -> void:
 	generator.prompt = "walk forward"
 	generator.playing = true
 	generator.generation_failed.connect(func(message: String) -> void: _report(message, false))
+	generator.prompt_started.connect(func(text: String) -> void: shown_prompt = text)
 	character.add_child(generator)
 	generator.queue_prompt("wave with the right hand", 6.0)
 	generator.queue_prompt("walk forward", 10.0)
 
 
-func _process(_delta: float) -> void:
-	if generator == null or not generator.is_generating():
+func _process(delta: float) -> void:
+	if generator == null or not generator.is_generating() or hips == Vector3.INF:
 		status_label.text = "Loading the model..."
-		return
-	if hips == Vector3.INF:
 		return
 	if start == Vector3.INF:
 		start = hips
+		camera.position = hips + CAMERA_OFFSET
+	# The camera follows the hips smoothly.
+	var focus := Vector3(hips.x, 1.0, hips.z)
+	camera.position = camera.position.lerp(focus + CAMERA_OFFSET, minf(1.0, 2.0 * delta))
+	camera.look_at(focus)
 	var stats := generator.get_stats()
 	status_label.text = (
 		"%s  |  t = %.1f s  |  window %.0f ms  |  buffered %.2f s"
-		% [
-			generator.prompt,
-			generator.get_time(),
-			stats["last_latency_ms"],
-			stats["buffered_seconds"]
-		]
+		% [shown_prompt, generator.get_time(), stats["last_latency_ms"], stats["buffered_seconds"]]
 	)
 	if DisplayServer.get_name() == "headless" and generator.get_time() >= HEADLESS_SECONDS:
 		var walked := Vector2(hips.x - start.x, hips.z - start.z).length()
