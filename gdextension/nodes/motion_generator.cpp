@@ -88,6 +88,7 @@ String MotionGenerator::get_model_path() const {
 
 void MotionGenerator::set_skeleton(const NodePath &path) {
 	skeleton_path_ = path;
+	skeleton_cache_id_ = 0;
 	remove_modifier();
 	retargeter_.reset();
 	rig_skeleton_id_ = 0;
@@ -110,6 +111,7 @@ Ref<BoneMap> MotionGenerator::get_bone_map() const {
 
 void MotionGenerator::set_root_motion_target(const NodePath &path) {
 	root_motion_target_path_ = path;
+	target_cache_id_ = 0;
 	has_last_character_ = false;
 	update_configuration_warnings();
 }
@@ -969,6 +971,8 @@ void MotionGenerator::poll_model() {
 
 void MotionGenerator::_enter_tree() {
 	in_tree_ = true;
+	skeleton_cache_id_ = 0;  // the paths may lead elsewhere from here
+	target_cache_id_ = 0;
 	set_process(true);
 }
 
@@ -1061,18 +1065,30 @@ void MotionGenerator::stop_planner() {
 	has_rig_pose_ = false;
 }
 
+// Resolved when the node enters the tree or a path changes, as Godot's own
+// nodes cache their NodePaths: a path lookup is the dearest call of a frame.
 Skeleton3D *MotionGenerator::find_skeleton() const {
-	if (skeleton_path_.is_empty() || !in_tree_) {
+	if (!in_tree_) {
 		return nullptr;
 	}
-	return Object::cast_to<Skeleton3D>(get_node_or_null(skeleton_path_));
+	if (auto *cached = Object::cast_to<Skeleton3D>(object_from_instance_id(skeleton_cache_id_))) {
+		return cached;
+	}
+	Skeleton3D *skeleton = skeleton_path_.is_empty() ? nullptr : Object::cast_to<Skeleton3D>(get_node_or_null(skeleton_path_));
+	skeleton_cache_id_ = skeleton != nullptr ? skeleton->get_instance_id() : 0;
+	return skeleton;
 }
 
 Node3D *MotionGenerator::find_root_motion_target() const {
 	if (root_motion_target_path_.is_empty() || !in_tree_ || in_editor_) {
 		return nullptr;
 	}
-	return Object::cast_to<Node3D>(get_node_or_null(root_motion_target_path_));
+	if (auto *cached = Object::cast_to<Node3D>(object_from_instance_id(target_cache_id_))) {
+		return cached;
+	}
+	auto *target = Object::cast_to<Node3D>(get_node_or_null(root_motion_target_path_));
+	target_cache_id_ = target != nullptr ? target->get_instance_id() : 0;
+	return target;
 }
 
 Node3D *MotionGenerator::reference_node() const {

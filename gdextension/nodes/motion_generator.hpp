@@ -221,6 +221,8 @@ private:
 	uint64_t modifier_skeleton_id_ = 0;     // the skeleton the modifier was put under
 	godot::Skeleton3D *posed_skeleton_ = nullptr;  // the skeleton rig_pose_ was made for (compared, never used)
 	bool in_tree_ = false;
+	mutable uint64_t skeleton_cache_id_ = 0;  // the node skeleton_path_ led to (find_skeleton)
+	mutable uint64_t target_cache_id_ = 0;    // and root_motion_target_path_
 	uint64_t rig_skeleton_id_ = 0;
 	uint64_t rig_version_ = 0;
 	uint64_t rig_bone_map_id_ = 0;

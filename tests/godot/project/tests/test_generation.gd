@@ -461,3 +461,54 @@ func test_fifty_characters_share_one_worker_without_underruns() -> void:
 	check(largest_batch > 1, "windows were batched (largest batch %d)" % largest_batch)
 	for character in crowd:
 		character.dispose()
+
+
+func test_bone_map_drives_a_rig_with_unknown_names() -> void:
+	# A rig whose bones no rule recognises, mapped with a BoneMap.
+	var rig := TestRigs.humanoid_rig(TestCharacter.MODEL, 1.0, 0.3)
+	var bone_map := BoneMap.new()
+	bone_map.profile = SkeletonProfileHumanoid.new()
+	for bone in rig.get_bone_count():
+		var profile_name := rig.get_bone_name(bone)
+		rig.set_bone_name(bone, "bone_%02d" % bone)
+		bone_map.set_skeleton_bone_name(profile_name, "bone_%02d" % bone)
+	var character := TestCharacter.new(rig, tree.root)
+	character.watched = PackedStringArray([rig.get_bone_name(0)])
+	character.generator.bone_map = bone_map
+	character.generator.prompt = "walk forward"
+	character.generator.playing = true
+	check(await character.wait_until_generating(tree), "the mapped rig generates")
+	check(await character.wait_until_time(tree, 2.0), "2 s of motion")
+	var hips_name := rig.get_bone_name(0)
+	var travel := _ground_distance(
+		character.position_at(hips_name, 0.05), character.position_at(hips_name, 2.0)
+	)
+	print("  bone map: the mapped hips travelled %.2f m in 2 s" % travel)
+	check(travel > 1.0, "the mapped hips travelled %.2f m in 2 s" % travel)
+	character.dispose()
+
+
+func test_reset_from_a_pose_continues_it() -> void:
+	var character := await _start("stand still")
+	var generator := character.generator
+	var skeleton := character.skeleton
+	check(await character.wait_until_time(tree, 0.5), "0.5 s of motion")
+	# Arms raised, as a pose the motion restarts from.
+	var pose := {
+		"UpperArm_L": Quaternion(Vector3(0, 0, 1), deg_to_rad(60)),
+		"UpperArm_R": Quaternion(Vector3(0, 0, 1), deg_to_rad(-60)),
+	}
+	generator.reset(pose)
+	check_eq(generator.get_last_error(), "", "reset took the pose")
+	character.samples.clear()
+	check(await character.wait_until_generating(tree), "generating again")
+	check(await character.wait_until_time(tree, 0.05), "the restarted clock runs")
+	var first: Dictionary = character.samples.front()["bones"]
+	var arm := skeleton.get_bone_global_rest(skeleton.find_bone("LowerArm_R")).origin
+	arm -= skeleton.get_bone_global_rest(skeleton.find_bone("UpperArm_R")).origin
+	var raised := Quaternion(Vector3(0, 0, 1), deg_to_rad(-60)) * arm
+	var shown: Vector3 = first["Hand_R"] - first["UpperArm_R"]
+	var angle := rad_to_deg(shown.angle_to(raised))
+	print("  reset from a pose: the first frame's right arm is %.1f degrees from it" % angle)
+	check(angle < 30.0, "the first frame continues the pose: arm %.1f degrees off" % angle)
+	character.dispose()
