@@ -411,6 +411,25 @@ void MotionGenerator::add_waypoint(const Vector3 &position, double at_seconds, d
 	}
 }
 
+template <class Goal>
+void MotionGenerator::replace_goals(std::vector<Goal> &goals, std::vector<Goal> replacement) {
+	if (planner_) {
+		for (const Goal &goal : goals) {
+			planner_->remove_constraint(goal.id);
+		}
+	}
+	goals = std::move(replacement);
+	if (!planner_) {
+		return;  // sent when generation starts
+	}
+	const double now = get_time();
+	for (Goal &goal : goals) {
+		if (goal.time >= now) {
+			submit(goal);
+		}
+	}
+}
+
 void MotionGenerator::set_waypoints(const Array &waypoints) {
 	try {
 		std::vector<WorldWaypoint> list;
@@ -431,21 +450,8 @@ void MotionGenerator::set_waypoints(const Array &waypoints) {
 			}
 			list.push_back(waypoint);
 		}
-		if (planner_) {
-			for (const WorldWaypoint &waypoint : waypoints_) {
-				planner_->remove_constraint(waypoint.id);
-			}
-		}
-		waypoints_ = std::move(list);
+		replace_goals(waypoints_, std::move(list));
 		waypoint_resources_ = waypoints;
-		if (planner_) {
-			const double now = get_time();
-			for (WorldWaypoint &waypoint : waypoints_) {
-				if (waypoint.time >= now) {
-					submit(waypoint);
-				}
-			}
-		}
 	} catch (const std::exception &failure) {
 		fail(failure.what());
 	}
@@ -756,21 +762,8 @@ void MotionGenerator::set_keyframes(const Array &keyframes) {
 			}
 			list.push_back(keyframe);
 		}
-		if (planner_) {
-			for (const PoseKeyframe &keyframe : keyframes_) {
-				planner_->remove_constraint(keyframe.id);
-			}
-		}
-		keyframes_ = std::move(list);
+		replace_goals(keyframes_, std::move(list));
 		keyframe_resources_ = keyframes;
-		if (planner_ && retargeter_) {
-			const double now = get_time();
-			for (PoseKeyframe &keyframe : keyframes_) {
-				if (keyframe.time >= now) {
-					submit(keyframe);
-				}
-			}
-		}
 	} catch (const std::exception &failure) {
 		fail(failure.what());
 	}

@@ -177,6 +177,9 @@ private:
 	void submit(WorldPath &path);
 	void submit(WorldJointTarget &target);
 	void submit(PoseKeyframe &keyframe);
+	// Replaces a goal list, taking the old goals out of the planner and sending the new ones still ahead.
+	template <class Goal>
+	void replace_goals(std::vector<Goal> &goals, std::vector<Goal> replacement);
 	void apply_root_motion(double delta, const Frame &character, godot::Node3D *target, godot::Skeleton3D *skeleton);
 	void update_rig_pose(const Frame &body, const Frame &character, bool moved_target, godot::Skeleton3D *skeleton);
 	void report_planner();

@@ -37,19 +37,7 @@ static func model_skeleton(model_path: String) -> Dictionary:
 
 ## A Skeleton3D with the model's joint names and rest offsets (identity rests).
 static func model_rig(model_path: String) -> Skeleton3D:
-	var skeleton_data := model_skeleton(model_path)
-	var skeleton := Skeleton3D.new()
-	skeleton.name = "Skeleton3D"
-	var joints: Array = skeleton_data["joints"]
-	for i in joints.size():
-		skeleton.add_bone(joints[i])
-		var parent: int = skeleton_data["parents"][i]
-		if parent >= 0:
-			skeleton.set_bone_parent(i, parent)
-		var offset: Array = skeleton_data["rest_offsets"][i]
-		skeleton.set_bone_rest(i, Transform3D(Basis(), Vector3(offset[0], offset[1], offset[2])))
-	skeleton.reset_bone_poses()
-	return skeleton
+	return ArdyModelSkeleton.build(model_path)
 
 
 ## A humanoid rig with SkeletonProfileHumanoid names, the model's shape
