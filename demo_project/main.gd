@@ -1,8 +1,9 @@
 extends Node3D
 ## Demo entry point, for now: a stick figure driven by a MotionGenerator with
-## the shipped model, walking, then waving, then walking again, followed by
-## the camera. Headless (no display) it plays a few seconds, reports how far
-## the character walked and quits.
+## the shipped model, followed by the camera. Type a prompt and press Enter,
+## steer with WASD / arrows (Shift runs), click the ground for waypoints
+## (right click clears). Headless (no display) it plays a few seconds,
+## reports how far the character walked and quits.
 
 const DEFAULT_MODEL := "res://addons/ardy/models/default"
 const HEADLESS_SECONDS := 4.0
@@ -16,6 +17,7 @@ var shown_prompt := ""
 @onready var status_label: Label = $UI/Status
 @onready var character: Node3D = $Character
 @onready var camera: Camera3D = $Camera3D
+@onready var prompt_box: LineEdit = $UI/Prompt
 
 
 func _ready() -> void:
@@ -36,8 +38,30 @@ func _ready() -> void:
 	generator.generation_failed.connect(func(message: String) -> void: _report(message, false))
 	generator.prompt_started.connect(func(text: String) -> void: shown_prompt = text)
 	character.add_child(generator)
-	generator.queue_prompt("wave with the right hand", 6.0)
-	generator.queue_prompt("walk forward", 10.0)
+	_add_controls()
+
+
+func _add_controls() -> void:
+	DemoInputActions.ensure()
+	var steering := KeyboardSteering.new()
+	steering.name = "KeyboardSteering"
+	steering.generator = generator
+	steering.camera = camera
+	add_child(steering)
+	var clicks := ClickWaypoints.new()
+	clicks.name = "ClickWaypoints"
+	clicks.generator = generator
+	clicks.camera = camera
+	clicks.hips_position = func() -> Vector3: return hips
+	add_child(clicks)
+	prompt_box.text_submitted.connect(_on_prompt_submitted)
+
+
+func _on_prompt_submitted(text: String) -> void:
+	if not text.strip_edges().is_empty():
+		generator.target_velocity = Vector3.ZERO
+		generator.prompt = text.strip_edges()
+	prompt_box.release_focus()  # the keys steer again
 
 
 func _process(delta: float) -> void:
@@ -56,7 +80,7 @@ func _process(delta: float) -> void:
 		"%s  |  t = %.1f s  |  window %.0f ms  |  buffered %.2f s"
 		% [shown_prompt, generator.get_time(), stats["last_latency_ms"], stats["buffered_seconds"]]
 	)
-	if DisplayServer.get_name() == "headless" and generator.get_time() >= HEADLESS_SECONDS:
+	if _reports_headless() and generator.get_time() >= HEADLESS_SECONDS:
 		var walked := Vector2(hips.x - start.x, hips.z - start.z).length()
 		_report(
 			"Demo: the character walked %.2f m in %.0f s." % [walked, HEADLESS_SECONDS],
@@ -70,5 +94,10 @@ func _report(message: String, ok: bool) -> void:
 		print(message)
 	else:
 		printerr(message)
-	if DisplayServer.get_name() == "headless":
+	if _reports_headless():
 		get_tree().quit(0 if ok else 1)
+
+
+# Run headless as the main scene (not inside a test): report and quit.
+func _reports_headless() -> bool:
+	return DisplayServer.get_name() == "headless" and get_tree().current_scene == self
