@@ -172,14 +172,28 @@ void MotionGenerator::set_steps(int64_t steps) {
 		fail("steps: " + std::to_string(steps) + " is out of range (0 for the model's default, or 1..1000)");
 		return;
 	}
+	const int64_t previous = steps_;
 	steps_ = steps;
-	if (planner_) {
-		try {
-			planner_->set_sampling(steps_ > 0 ? std::optional<size_t>(static_cast<size_t>(steps_)) : std::nullopt, std::nullopt, std::nullopt);
-		} catch (const std::exception &failure) {
-			fail(std::string("steps: ") + failure.what());
-		}
+	if (!apply_sampling("steps")) {
+		steps_ = previous;
 	}
+}
+
+// The sampling settings as the properties say, the model's defaults where
+// they ask for them (0 steps, a negative weight), for the windows to come.
+bool MotionGenerator::apply_sampling(const char *what) {
+	if (!planner_ || !package_) {
+		return true;
+	}
+	const SamplingDefaults &defaults = package_->sampling_defaults();
+	try {
+		planner_->set_sampling(steps_ > 0 ? static_cast<size_t>(steps_) : defaults.steps,
+				text_guidance_ >= 0.0 ? static_cast<float>(text_guidance_) : defaults.w_text,
+				constraint_guidance_ >= 0.0 ? static_cast<float>(constraint_guidance_) : defaults.w_con);
+	} catch (const std::exception &failure) {
+		return fail(std::string(what) + ": " + failure.what());
+	}
+	return true;
 }
 
 int64_t MotionGenerator::get_steps() const {
@@ -191,9 +205,10 @@ void MotionGenerator::set_text_guidance(double weight) {
 		fail("text_guidance: not a finite number");
 		return;
 	}
+	const double previous = text_guidance_;
 	text_guidance_ = weight;
-	if (planner_ && weight >= 0.0) {
-		planner_->set_sampling(std::nullopt, static_cast<float>(weight), std::nullopt);
+	if (!apply_sampling("text_guidance")) {
+		text_guidance_ = previous;
 	}
 }
 
@@ -206,9 +221,10 @@ void MotionGenerator::set_constraint_guidance(double weight) {
 		fail("constraint_guidance: not a finite number");
 		return;
 	}
+	const double previous = constraint_guidance_;
 	constraint_guidance_ = weight;
-	if (planner_ && weight >= 0.0) {
-		planner_->set_sampling(std::nullopt, std::nullopt, static_cast<float>(weight));
+	if (!apply_sampling("constraint_guidance")) {
+		constraint_guidance_ = previous;
 	}
 }
 

@@ -171,6 +171,7 @@ private:
 	godot::Node3D *reference_node() const;
 	void place_anchor();
 	PlannerConfig planner_config(const std::vector<float> &initial_history) const;
+	bool apply_sampling(const char *what);  // false (reported) when the planner refuses them
 	void submit_world_goals();
 	void clear_goal_lists();
 	void submit(WorldWaypoint &waypoint);

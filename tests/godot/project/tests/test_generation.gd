@@ -512,3 +512,21 @@ func test_reset_from_a_pose_continues_it() -> void:
 	print("  reset from a pose: the first frame's right arm is %.1f degrees from it" % angle)
 	check(angle < 30.0, "the first frame continues the pose: arm %.1f degrees off" % angle)
 	character.dispose()
+
+
+func test_sampling_settings_change_live_and_a_refused_one_is_kept_out() -> void:
+	var character := await _start("walk")
+	var generator := character.generator
+	generator.steps = 2
+	generator.text_guidance = 3.0
+	generator.steps = 0  # back to the model's default
+	check_eq(generator.get_last_error(), "", "live sampling changes are accepted")
+	expect_error("steps: ")
+	generator.steps = 900  # more steps than the model's schedule has
+	check_eq(generator.steps, 0, "a refused step count leaves the previous one")
+	var windows: int = generator.get_stats()["windows"]
+	var deadline := Time.get_ticks_msec() + 30000
+	while generator.get_stats()["windows"] < windows + 2 and Time.get_ticks_msec() < deadline:
+		await tree.process_frame
+	check(generator.get_stats()["windows"] >= windows + 2, "windows still come after the refusal")
+	character.dispose()
