@@ -38,10 +38,6 @@ bool finite(const Vector3 &v) {
 	return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
 
-glm::mat3 yaw_matrix(float yaw) {
-	return heading_rotation(yaw);
-}
-
 // Adds the elapsed microseconds of one main-thread step to `total`.
 class MainThreadTimer {
 public:
@@ -1194,7 +1190,7 @@ void MotionGenerator::place_anchor() {
 	if (Node3D *reference = reference_node()) {
 		const Frame frame = to_frame(reference->get_global_transform());
 		anchor_.yaw_angle = frame.yaw();
-		anchor_.yaw = yaw_matrix(anchor_.yaw_angle);
+		anchor_.yaw = heading_rotation(anchor_.yaw_angle);
 		anchor_.origin = frame.origin;
 	}
 	// Metres of the rig per metre of the model: the legs' ratio, in world units.
@@ -1207,8 +1203,11 @@ void MotionGenerator::place_anchor() {
 }
 
 glm::quat MotionGenerator::frame_rotation(const Skeleton3D *skeleton) const {
+	return frame_rotation(skeleton != nullptr ? to_frame(skeleton->get_global_transform()).rotation() : glm::quat(1, 0, 0, 0));
+}
+
+glm::quat MotionGenerator::frame_rotation(const glm::quat &skeleton_rotation) const {
 	// Model world -> skeleton space: the anchor's yaw, then the skeleton's world rotation undone.
-	const glm::quat skeleton_rotation = skeleton != nullptr ? to_frame(skeleton->get_global_transform()).rotation() : glm::quat(1, 0, 0, 0);
 	return glm::normalize(glm::inverse(skeleton_rotation) * glm::quat_cast(anchor_.yaw));
 }
 
@@ -1248,7 +1247,7 @@ void MotionGenerator::_process(double delta) {
 	// The character's frame in the world: the root's ground point and heading.
 	const glm::vec3 root_world = anchor_.to_world(glm::vec3(pose_.root_position.x, 0.0f, pose_.root_position.z));
 	Frame character;
-	character.basis = yaw_matrix(anchor_.yaw_angle + pose_.heading);
+	character.basis = heading_rotation(anchor_.yaw_angle + pose_.heading);
 	character.origin = root_world;
 	hips_world_ = anchor_.to_world(pose_.root_position);
 	apply_root_motion(delta, character, target, skeleton);
@@ -1309,12 +1308,12 @@ void MotionGenerator::update_rig_pose(const Frame &body, const Frame &character,
 	const Frame skeleton_frame = to_frame(skeleton->get_global_transform());
 	const glm::quat skeleton_rotation = skeleton_frame.rotation();
 	glm::vec3 hips_world = hips_world_;
-	glm::quat frame = glm::normalize(glm::inverse(skeleton_rotation) * glm::quat_cast(anchor_.yaw));
+	glm::quat frame = frame_rotation(skeleton_rotation);
 	if (moved_target) {
 		// The pose relative to the character's frame, shown where the body is.
 		const glm::vec3 relative = glm::inverse(character.rotation()) * (hips_world_ - character.origin);
 		hips_world = body.origin + body.rotation() * relative;
-		frame = glm::normalize(glm::inverse(skeleton_rotation) * body.rotation() * glm::inverse(character.rotation()) * glm::quat_cast(anchor_.yaw));
+		frame = frame_rotation(glm::inverse(body.rotation() * glm::inverse(character.rotation())) * skeleton_rotation);
 	}
 	retargeter_->apply(pose_.local_rotations, frame, skeleton_frame.apply_inverse(hips_world), rig_pose_);
 	has_rig_pose_ = true;

@@ -189,6 +189,7 @@ private:
 	// A rig pose as the model's, standing on the ground, turned to `heading` when given.
 	Pose standing_pose(const godot::Variant &pose, const char *what, std::optional<float> heading) const;
 	glm::quat frame_rotation(const godot::Skeleton3D *skeleton) const;
+	glm::quat frame_rotation(const glm::quat &skeleton_rotation) const;
 	std::optional<std::string> model_joint_of(const godot::String &bone) const;
 	double check_time(double at_seconds, const char *what) const;
 	bool fail(const std::string &message);

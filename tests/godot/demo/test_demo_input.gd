@@ -75,13 +75,7 @@ func _click_a_waypoint() -> void:
 	# Headless, the window is 64 x 64 pixels and the UI covers all of it.
 	var ui: CanvasLayer = main.get_node("UI")
 	ui.visible = false
-	for pressed in [true, false]:
-		var click := InputEventMouseButton.new()
-		click.button_index = MOUSE_BUTTON_LEFT
-		click.pressed = pressed
-		click.position = screen
-		click.global_position = screen
-		Input.parse_input_event(click)
+	_left_click(screen)
 	await process_frame
 	ui.visible = true
 	var clicked_at := generator.get_time()
@@ -101,13 +95,7 @@ func _type_a_prompt() -> void:
 	var started: Array[String] = []
 	generator.prompt_started.connect(func(text: String) -> void: started.append(text))
 	var centre := box.get_global_rect().get_center()
-	for pressed in [true, false]:
-		var click := InputEventMouseButton.new()
-		click.button_index = MOUSE_BUTTON_LEFT
-		click.pressed = pressed
-		click.position = centre
-		click.global_position = centre
-		Input.parse_input_event(click)
+	_left_click(centre)
 	await process_frame
 	_check(box.has_focus(), "a click focuses the prompt box")
 	for character in "wave with the right hand":
@@ -129,6 +117,16 @@ func _type_a_prompt() -> void:
 	await _wait_motion(typed_at + 2.0)
 	print("  typed prompt: prompts started %s" % [started])
 	_check(started.has("wave with the right hand"), "the typed prompt reached the motion")
+
+
+func _left_click(screen_position: Vector2) -> void:
+	for pressed in [true, false]:
+		var click := InputEventMouseButton.new()
+		click.button_index = MOUSE_BUTTON_LEFT
+		click.pressed = pressed
+		click.position = screen_position
+		click.global_position = screen_position
+		Input.parse_input_event(click)
 
 
 func _key(keycode: Key, pressed: bool) -> void:
