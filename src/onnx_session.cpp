@@ -14,10 +14,31 @@
 #include <system_error>
 #include <thread>
 
+#include "generation_cpu.hpp"
+
 namespace ardy {
 namespace {
 
 std::string in_quotes(const std::string& s) { return "'" + s + "'"; }
+
+// The shared pool's threads are made here so their CPU time counts as
+// generation (generation_cpu.hpp); ONNX Runtime joins them through the second.
+OrtCustomThreadHandle create_pool_thread(void*, OrtThreadWorkerFn work, void* work_argument) {
+  try {
+    auto thread = std::make_unique<std::thread>([work, work_argument] {
+      GenerationThreadScope counted;
+      work(work_argument);
+    });
+    return reinterpret_cast<OrtCustomThreadHandle>(thread.release());
+  } catch (const std::exception&) {
+    return nullptr;  // ONNX Runtime reports the failed thread creation
+  }
+}
+
+void join_pool_thread(OrtCustomThreadHandle handle) {
+  std::unique_ptr<std::thread> thread(reinterpret_cast<std::thread*>(const_cast<OrtCustomHandleType*>(handle)));
+  if (thread && thread->joinable()) thread->join();
+}
 
 // "[batch, 8]": the graph's view of a shape, symbolic names where it has them.
 std::string format_graph_shape(const TensorInfo& info) {
@@ -190,6 +211,8 @@ OnnxEnvironment::OnnxEnvironment(const EnvironmentOptions& options) {
       threading.SetGlobalIntraOpNumThreads(effective_intra_op_threads(options.shared_pool_threads));
       threading.SetGlobalInterOpNumThreads(1);
       threading.SetGlobalSpinControl(options.allow_spinning ? 1 : 0);
+      threading.SetGlobalCustomCreateThreadFn(create_pool_thread);
+      threading.SetGlobalCustomJoinThreadFn(join_pool_thread);
       impl_ = std::make_unique<Impl>(Impl{Ort::Env(threading, ORT_LOGGING_LEVEL_WARNING, "ardy"), true});
     } else {
       impl_ = std::make_unique<Impl>(Impl{Ort::Env(ORT_LOGGING_LEVEL_WARNING, "ardy"), false});

@@ -7,6 +7,7 @@
 #include <limits>
 #include <utility>
 
+#include "generation_cpu.hpp"
 #include "joint_reach.hpp"
 #include "kinematics.hpp"
 #include "motion_filter.hpp"
@@ -633,6 +634,7 @@ int64_t Planner::earliest_splice() const {
 }
 
 void Planner::worker_main() {
+  const GenerationThreadScope counted;
   std::vector<Command> batch;
   batch.reserve(16);
   std::unique_lock<std::mutex> lock(inbox_mutex_);

@@ -1,5 +1,7 @@
 #include "window_batcher.hpp"
 
+#include "generation_cpu.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -66,6 +68,7 @@ std::vector<std::shared_ptr<Request>> WindowBatcher::State::take_batch() {
 }
 
 void WindowBatcher::State::run() {
+  const GenerationThreadScope counted;
   const auto gather = std::chrono::duration_cast<SteadyClock::duration>(
       std::chrono::duration<double>(config.gather_seconds));
   std::unique_lock<std::mutex> lock(mutex);

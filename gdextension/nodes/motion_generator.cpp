@@ -7,6 +7,7 @@
 #include "godot/ref.hpp"
 
 #include "features.hpp"
+#include "generation_cpu.hpp"
 #include "kinematics.hpp"
 
 #include <algorithm>
@@ -896,6 +897,8 @@ Dictionary MotionGenerator::get_stats() const {
 		stats.set("batches", static_cast<int64_t>(batcher.batches));
 		stats.set("largest_batch", static_cast<int64_t>(batcher.largest_batch));
 	}
+	// Process-wide, so a HUD can show the cores all characters use together.
+	stats.set("generation_cpu_seconds", generation_cpu_seconds());
 	return stats;
 }
 

@@ -8,6 +8,7 @@
 #include <memory>
 #include <vector>
 
+#include "generation_cpu.hpp"
 #include "onnx_session.hpp"
 #include "package.hpp"
 #include "rollout.hpp"
@@ -61,4 +62,24 @@ TEST_CASE("a shared pool asked for after an environment without one is refused c
   CHECK_THAT(error_message([] { load(true); }), ContainsSubstring("shared thread pool"));
   // The first package is unaffected.
   CHECK_FALSE(first_window(own).empty());
+}
+
+TEST_CASE("the shared pool's threads count as generation CPU time", "[onnx][threads][cpu]") {
+  PackageOptions options;
+  options.session.intra_op_threads = 2;  // the calling thread and one pool thread
+  options.session.allow_spinning = false;
+  options.shared_thread_pool = true;
+  const auto shipped = std::make_shared<const ModelPackage>(ModelPackage::from_folder(ARDY_SHIPPED_MODEL_DIR, options));
+  REQUIRE(shipped->environment()->shared_pool());
+  // This thread is not a generation thread: what is counted is the pool's.
+  const double before = ardy::generation_cpu_seconds();
+  const double caller_before = ardy::thread_cpu_seconds();
+  ardy::Rollout rollout(shipped);
+  rollout.add_prompt(0, "walk forward");
+  for (int window = 0; window < 3; ++window) CHECK_FALSE(rollout.generate_next_window().features.empty());
+  const double pool = ardy::generation_cpu_seconds() - before;
+  const double caller = ardy::thread_cpu_seconds() - caller_before;
+  // The pool thread shares the graphs' large operators with the caller.
+  CHECK(pool > 0.1 * caller);
+  CHECK(pool < 2.0 * caller);
 }
