@@ -1,44 +1,54 @@
 extends Node3D
-## Demo entry point, for now: a stick figure driven by a MotionGenerator with
-## the shipped model, followed by the camera. Type a prompt and press Enter,
-## steer with WASD / arrows (Shift runs), click the ground for waypoints
-## (right click clears). Headless (no display) it plays a few seconds,
-## reports how far the character walked and quits.
+## The demo: a mannequin driven by a MotionGenerator with the shipped model,
+## through the node's retargeting (the mannequin's rig is not the model's).
+## Type a prompt or pick a preset, queue prompts on the timeline, steer with
+## WASD / arrows (Shift runs), click the ground for waypoints (right click
+## clears), add keyframe presets, tune the settings, or open the crowd.
+## Headless (no display) as the main scene it plays a few seconds, reports
+## how far the character walked and quits.
 
-const DEFAULT_MODEL := "res://addons/ardy/models/default"
 const HEADLESS_SECONDS := 4.0
-const CAMERA_OFFSET := Vector3(-1.8, 0.9, 2.2)
+const CROWD_SCENE := "res://crowd/crowd.tscn"
 
 var generator: MotionGenerator
-var start := Vector3.INF
+var skeleton: Skeleton3D
+## The character's hips in world space (INF until the first generated pose).
 var hips := Vector3.INF
-var shown_prompt := ""
+var prompt_bar: PromptBar
+var timeline: PromptTimeline
+var keyframe_presets: KeyframePresets
+var click_waypoints: ClickWaypoints
+var _start := Vector3.INF
 
-@onready var status_label: Label = $UI/Status
 @onready var character: Node3D = $Character
-@onready var camera: Camera3D = $Camera3D
-@onready var prompt_box: LineEdit = $UI/Prompt
+@onready var camera: OrbitCamera = $Camera
+@onready var controls: Node3D = $Controls
+@onready var ui: CanvasLayer = $UI
 
 
 func _ready() -> void:
 	if not ClassDB.class_exists("MotionGenerator"):
 		_report("ARDY extension NOT loaded: build it with scripts/demo.sh.", false)
 		return
-	var skeleton := StickFigure.build(DEFAULT_MODEL)
+	skeleton = Mannequin.build()
 	character.add_child(skeleton)
 	# Generated poses exist in the skeleton's update (modifiers are not kept
 	# in the bone poses), so read them when it has finished.
+	var hips_bone := skeleton.find_bone("Hips")
 	skeleton.skeleton_updated.connect(
-		func() -> void: hips = skeleton.global_transform * skeleton.get_bone_global_pose(0).origin
+		func() -> void:
+			hips = skeleton.global_transform * skeleton.get_bone_global_pose(hips_bone).origin
 	)
 	generator = MotionGenerator.new()
+	generator.name = "MotionGenerator"
 	generator.skeleton = NodePath("../Skeleton3D")
 	generator.prompt = "walk forward"
 	generator.playing = true
-	generator.generation_failed.connect(func(message: String) -> void: _report(message, false))
-	generator.prompt_started.connect(func(text: String) -> void: shown_prompt = text)
+	generator.generation_failed.connect(func(message: String) -> void: printerr(message))
 	character.add_child(generator)
+	camera.follow = func() -> Vector3: return hips
 	_add_controls()
+	_add_ui()
 
 
 func _add_controls() -> void:
@@ -47,41 +57,63 @@ func _add_controls() -> void:
 	steering.name = "KeyboardSteering"
 	steering.generator = generator
 	steering.camera = camera
-	add_child(steering)
-	var clicks := ClickWaypoints.new()
-	clicks.name = "ClickWaypoints"
-	clicks.generator = generator
-	clicks.camera = camera
-	clicks.hips_position = func() -> Vector3: return hips
-	add_child(clicks)
-	prompt_box.text_submitted.connect(_on_prompt_submitted)
+	controls.add_child(steering)
+	click_waypoints = ClickWaypoints.new()
+	click_waypoints.name = "ClickWaypoints"
+	click_waypoints.generator = generator
+	click_waypoints.camera = camera
+	click_waypoints.hips_position = func() -> Vector3: return hips
+	controls.add_child(click_waypoints)
+	keyframe_presets = KeyframePresets.new()
+	keyframe_presets.name = "KeyframePresets"
+	keyframe_presets.generator = generator
+	keyframe_presets.skeleton = skeleton
+	controls.add_child(keyframe_presets)
 
 
-func _on_prompt_submitted(text: String) -> void:
-	if not text.strip_edges().is_empty():
-		generator.target_velocity = Vector3.ZERO
-		generator.prompt = text.strip_edges()
-	prompt_box.release_focus()  # the keys steer again
+func _add_ui() -> void:
+	var hud := StatsHud.new()
+	hud.name = "StatsHud"
+	hud.generator = generator
+	ui.add_child(hud)
+	var settings := SettingsPanel.new()
+	settings.name = "Settings"
+	settings.generator = generator
+	# A restart drops the goals with the motion: their marks go too.
+	settings.restarted.connect(click_waypoints.clear)
+	settings.restarted.connect(keyframe_presets.clear)
+	ui.add_child(settings)
+	timeline = PromptTimeline.new()
+	timeline.name = "Timeline"
+	timeline.generator = generator
+	ui.add_child(timeline)
+	var queue_row := PromptQueueRow.new()
+	queue_row.name = "PromptQueue"
+	queue_row.timeline = timeline
+	ui.add_child(queue_row)
+	prompt_bar = PromptBar.new()
+	prompt_bar.name = "PromptBar"
+	prompt_bar.prompt_chosen.connect(_on_prompt_chosen)
+	ui.add_child(prompt_bar)
+	var actions := SceneActions.new()
+	actions.name = "Actions"
+	actions.keyframe_presets = keyframe_presets
+	actions.crowd_scene = CROWD_SCENE
+	ui.add_child(actions)
 
 
-func _process(delta: float) -> void:
-	if generator == null or not generator.is_generating() or hips == Vector3.INF:
-		status_label.text = "Loading the model..."
+func _on_prompt_chosen(text: String) -> void:
+	generator.target_velocity = Vector3.ZERO
+	generator.prompt = text
+
+
+func _process(_delta: float) -> void:
+	if hips == Vector3.INF or not _reports_headless():
 		return
-	if start == Vector3.INF:
-		start = hips
-		camera.position = hips + CAMERA_OFFSET
-	# The camera follows the hips smoothly.
-	var focus := Vector3(hips.x, 1.0, hips.z)
-	camera.position = camera.position.lerp(focus + CAMERA_OFFSET, minf(1.0, 2.0 * delta))
-	camera.look_at(focus)
-	var stats := generator.get_stats()
-	status_label.text = (
-		"%s  |  t = %.1f s  |  window %.0f ms  |  buffered %.2f s"
-		% [shown_prompt, generator.get_time(), stats["last_latency_ms"], stats["buffered_seconds"]]
-	)
-	if _reports_headless() and generator.get_time() >= HEADLESS_SECONDS:
-		var walked := Vector2(hips.x - start.x, hips.z - start.z).length()
+	if _start == Vector3.INF:
+		_start = hips
+	if generator.get_time() >= HEADLESS_SECONDS:
+		var walked := Vector2(hips.x - _start.x, hips.z - _start.z).length()
 		_report(
 			"Demo: the character walked %.2f m in %.0f s." % [walked, HEADLESS_SECONDS],
 			walked > 1.0
@@ -89,7 +121,6 @@ func _process(delta: float) -> void:
 
 
 func _report(message: String, ok: bool) -> void:
-	status_label.text = message
 	if ok:
 		print(message)
 	else:
@@ -98,6 +129,6 @@ func _report(message: String, ok: bool) -> void:
 		get_tree().quit(0 if ok else 1)
 
 
-# Run headless as the main scene (not inside a test): report and quit.
+# Run headless as the main scene (not inside a test or the tour): report and quit.
 func _reports_headless() -> bool:
 	return DisplayServer.get_name() == "headless" and get_tree().current_scene == self

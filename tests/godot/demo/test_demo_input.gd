@@ -1,9 +1,11 @@
 extends SceneTree
-## Drives the demo scene as a player does, through Input.parse_input_event:
-## a held W key walks the character where the camera looks and releasing it
-## stops it, a click on the ground places a waypoint it reaches, and a prompt
-## typed into the box changes what it does. tests/godot/run.sh runs it in a
-## copy of the demo project; it prints "N passed, N failed".
+## Drives the demo scene as a player does, through Input.parse_input_event
+## (SyntheticInput): a held W key walks the character where the camera looks
+## and releasing it stops it, a click on the ground places a waypoint it
+## reaches, a prompt typed into the box changes what it does and comes back
+## with the Up key, a keyframe preset shows a ghost that goes once the pose
+## is reached. tests/godot/run.sh runs it in a copy of the demo project; it
+## prints "N passed, N failed".
 
 var main: Node3D
 var generator: MotionGenerator
@@ -17,6 +19,11 @@ func _initialize() -> void:
 
 
 func _run() -> void:
+	# The headless window is 64 x 64 pixels: lay the UI out as on a 1280 x 720
+	# screen, scaled down (SyntheticInput clicks through the scaling).
+	root.content_scale_mode = Window.CONTENT_SCALE_MODE_CANVAS_ITEMS
+	root.content_scale_aspect = Window.CONTENT_SCALE_ASPECT_IGNORE
+	root.content_scale_size = Vector2i(1280, 720)
 	main = load("res://main.tscn").instantiate()
 	root.add_child(main)
 	var deadline := Time.get_ticks_msec() + 90000
@@ -31,21 +38,42 @@ func _run() -> void:
 		_finish()
 		return
 	var skeleton: Skeleton3D = main.get_node("Character/Skeleton3D")
+	var bone_height := func(bone: String) -> float:
+		return (
+			(skeleton.global_transform * skeleton.get_bone_global_pose(skeleton.find_bone(bone)))
+			. origin
+			. y
+		)
 	skeleton.skeleton_updated.connect(
-		func() -> void: hips_track.append({"time": generator.get_time(), "hips": main.get("hips")})
+		func() -> void:
+			(
+				hips_track
+				. append(
+					{
+						"time": generator.get_time(),
+						"hips": main.get("hips"),
+						"hands_over_head":
+						(
+							minf(bone_height.call("LeftHand"), bone_height.call("RightHand"))
+							- bone_height.call("Head")
+						),
+					}
+				)
+			)
 	)
 	await _wait_motion(1.0)
 	await _walk_with_the_w_key()
 	await _click_a_waypoint()
 	await _type_a_prompt()
+	await _add_a_keyframe_preset()
 	_finish()
 
 
 func _walk_with_the_w_key() -> void:
-	var camera: Camera3D = main.get_node("Camera3D")
+	var camera: Camera3D = main.get_node("Camera")
 	var forward := -camera.global_basis.z
 	forward = Vector3(forward.x, 0, forward.z).normalized()
-	_key(KEY_W, true)
+	SyntheticInput.key(KEY_W, true)
 	var pressed_at := generator.get_time()
 	await _wait_motion(pressed_at + 3.0)
 	var moved := _hips_at(pressed_at + 3.0) - _hips_at(pressed_at + 2.0)
@@ -53,7 +81,7 @@ func _walk_with_the_w_key() -> void:
 	var angle := rad_to_deg(moved.angle_to(forward))
 	print("  W held: %.2f m/s, %.0f degrees from the camera's forward" % [moved.length(), angle])
 	_check(moved.length() > 0.6 and angle < 30.0, "holding W walks where the camera looks")
-	_key(KEY_W, false)
+	SyntheticInput.key(KEY_W, false)
 	var released_at := generator.get_time()
 	await _wait_motion(released_at + 3.0)
 	var drift := _hips_at(released_at + 3.0) - _hips_at(released_at + 2.0)
@@ -63,7 +91,7 @@ func _walk_with_the_w_key() -> void:
 
 
 func _click_a_waypoint() -> void:
-	var camera: Camera3D = main.get_node("Camera3D")
+	var camera: Camera3D = main.get_node("Camera")
 	var hips: Vector3 = main.get("hips")
 	# A point on the ground 2 m beyond the character, as seen from the camera.
 	var forward := -camera.global_basis.z
@@ -72,12 +100,12 @@ func _click_a_waypoint() -> void:
 	var screen := camera.unproject_position(target)
 	var reached: Array[int] = []
 	generator.waypoint_reached.connect(func(index: int) -> void: reached.append(index))
-	# Headless, the window is 64 x 64 pixels and the UI covers all of it.
-	var ui: CanvasLayer = main.get_node("UI")
-	ui.visible = false
-	_left_click(screen)
+	SyntheticInput.click(root, screen)
 	await process_frame
-	ui.visible = true
+	_check(
+		generator.get_waypoints().size() == 1,
+		"the click on the ground (not on the UI) placed a waypoint"
+	)
 	var clicked_at := generator.get_time()
 	await _wait_motion(clicked_at + 6.0)
 	var closest := INF
@@ -91,23 +119,13 @@ func _click_a_waypoint() -> void:
 
 
 func _type_a_prompt() -> void:
-	var box: LineEdit = main.get_node("UI/Prompt")
+	var box: LineEdit = main.prompt_bar.box()
 	var started: Array[String] = []
 	generator.prompt_started.connect(func(text: String) -> void: started.append(text))
-	var centre := box.get_global_rect().get_center()
-	_left_click(centre)
+	SyntheticInput.click(root, box.get_global_rect().get_center())
 	await process_frame
 	_check(box.has_focus(), "a click focuses the prompt box")
-	for character in "wave with the right hand":
-		var key := InputEventKey.new()
-		key.pressed = true
-		key.unicode = character.unicode_at(0)
-		key.keycode = OS.find_keycode_from_string(character) if character != " " else KEY_SPACE
-		Input.parse_input_event(key)
-		await process_frame
-	_key(KEY_ENTER, true)
-	_key(KEY_ENTER, false)
-	await process_frame
+	await SyntheticInput.type_line(self, "wave with the right hand")
 	_check(
 		generator.prompt == "wave with the right hand",
 		"Enter applied the typed prompt: " + generator.prompt
@@ -117,24 +135,53 @@ func _type_a_prompt() -> void:
 	await _wait_motion(typed_at + 2.0)
 	print("  typed prompt: prompts started %s" % [started])
 	_check(started.has("wave with the right hand"), "the typed prompt reached the motion")
+	# The prompt comes back from the history with the Up key.
+	SyntheticInput.click(root, box.get_global_rect().get_center())
+	await process_frame
+	SyntheticInput.key(KEY_UP, true)
+	SyntheticInput.key(KEY_UP, false)
+	await process_frame
+	_check(box.text == "wave with the right hand", "Up recalls the last prompt: '%s'" % box.text)
+	box.clear()
+	box.release_focus()
 
 
-func _left_click(screen_position: Vector2) -> void:
-	for pressed in [true, false]:
-		var click := InputEventMouseButton.new()
-		click.button_index = MOUSE_BUTTON_LEFT
-		click.pressed = pressed
-		click.position = screen_position
-		click.global_position = screen_position
-		Input.parse_input_event(click)
-
-
-func _key(keycode: Key, pressed: bool) -> void:
-	var key := InputEventKey.new()
-	key.keycode = keycode
-	key.physical_keycode = keycode
-	key.pressed = pressed
-	Input.parse_input_event(key)
+func _add_a_keyframe_preset() -> void:
+	var stand: Button = main.get_node("UI/PromptBar/Presets").find_child("stand still", true, false)
+	SyntheticInput.click(root, stand.get_global_rect().get_center())
+	await process_frame
+	_check(generator.prompt == "stand still", "a preset prompt button applies its prompt")
+	await _wait_motion(generator.get_time() + 2.0)
+	var button: Button = main.get_node("UI/Actions").find_child("Hands up*", true, false)
+	var presets: Node3D = main.keyframe_presets
+	var reached: Array[int] = []
+	generator.keyframe_reached.connect(func(index: int) -> void: reached.append(index))
+	SyntheticInput.click(root, button.get_global_rect().get_center())
+	await process_frame
+	var keyframes := generator.get_keyframes()
+	_check(keyframes.size() == 1, "the preset button added a keyframe (%d)" % keyframes.size())
+	var ghosts := presets.find_children("Ghost*", "Skeleton3D", false, false)
+	_check(ghosts.size() == 1, "the keyframe shows a ghost pose (%d)" % ghosts.size())
+	if keyframes.is_empty() or ghosts.is_empty():
+		return
+	# The ghost stands where the character stands.
+	var ghost_place: Vector3 = ghosts[0].global_position
+	var hips: Vector3 = main.hips
+	var apart := Vector2(ghost_place.x - hips.x, ghost_place.z - hips.z).length()
+	print("  keyframe ghost %.2f m from the hips" % apart)
+	_check(apart < 0.5, "the ghost stands at the character (%.2f m)" % apart)
+	var due: float = keyframes[0].time
+	await _wait_motion(due + 1.5)
+	_check(reached.has(0), "keyframe_reached fired for the preset")
+	var highest := -INF
+	for sample in hips_track:
+		if absf(sample["time"] - due) < 0.3:
+			highest = maxf(highest, sample["hands_over_head"])
+	print("  hands up: both hands %.2f m over the head at the keyframe" % highest)
+	_check(highest > 0.25, "the character raised both hands over its head (%.2f m)" % highest)
+	await process_frame
+	var left := presets.find_children("Ghost*", "Skeleton3D", false, false).size()
+	_check(left == 0, "the ghost goes once its pose is reached (%d left)" % left)
 
 
 func _wait_motion(seconds: float) -> void:
