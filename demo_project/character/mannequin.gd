@@ -44,11 +44,21 @@ const _SIDE := [
 	["Toes", "Foot", Vector3(0.1, 0.035, 0.095)],
 ]
 
-# Depth is written as it draws, so the parts inside the body (the tops of the
-# limbs) do not show through it; the rim keeps the silhouette readable.
-const _GHOST_SHADER := """
+# Ghosts draw in two passes. The first writes only depth, so the second
+# shades only the nearest surface: the ends of the limbs inside the body and
+# overlapping parts do not show through as darker layers.
+const _GHOST_DEPTH_SHADER := """
 shader_type spatial;
 render_mode unshaded, cull_back, depth_draw_always;
+void fragment() {
+	ALBEDO = vec3(0.0);
+	ALPHA = 0.0;
+}
+"""
+# The rim keeps the silhouette readable.
+const _GHOST_SHADER := """
+shader_type spatial;
+render_mode unshaded, cull_back, depth_draw_never;
 uniform vec4 color : source_color = vec4(0.3, 0.7, 1.0, 0.35);
 void fragment() {
 	float rim = pow(1.0 - clamp(dot(NORMAL, VIEW), 0.0, 1.0), 2.0);
@@ -61,7 +71,7 @@ static var _mesh: ArrayMesh
 static var _skin: Skin
 static var _body_material: StandardMaterial3D
 static var _marker_material: StandardMaterial3D
-static var _ghost_shader: Shader
+static var _ghost_shaders: Array[Shader] = []
 ## Seconds the shared mesh took to build (for the demo's figures).
 static var build_seconds := 0.0
 
@@ -88,17 +98,21 @@ static func build_ghost(color: Color) -> Skeleton3D:
 	var skeleton := _skeleton()
 	var mesh := _mesh_instance(skeleton)
 	mesh.cast_shadow = GeometryInstance3D.SHADOW_CASTING_SETTING_OFF
-	if _ghost_shader == null:
-		_ghost_shader = Shader.new()
-		_ghost_shader.code = _GHOST_SHADER
-	var body := ShaderMaterial.new()
-	body.shader = _ghost_shader
-	body.set_shader_parameter("color", color)
-	var marker := ShaderMaterial.new()
-	marker.shader = _ghost_shader
-	marker.set_shader_parameter("color", Color(color.lightened(0.5), minf(1.0, color.a * 2.0)))
-	mesh.set_surface_override_material(0, body)
-	mesh.set_surface_override_material(1, marker)
+	if _ghost_shaders.is_empty():
+		for code: String in [_GHOST_DEPTH_SHADER, _GHOST_SHADER]:
+			var shader := Shader.new()
+			shader.code = code
+			_ghost_shaders.append(shader)
+	# One material for body and visor: two different override materials on
+	# one instance make the headless renderer report errors when it is freed.
+	var shaded := ShaderMaterial.new()
+	shaded.shader = _ghost_shaders[1]
+	shaded.set_shader_parameter("color", color)
+	var depth := ShaderMaterial.new()
+	depth.shader = _ghost_shaders[0]
+	depth.render_priority = -1  # before the shaded pass
+	depth.next_pass = shaded
+	mesh.material_override = depth
 	return skeleton
 
 

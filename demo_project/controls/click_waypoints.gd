@@ -8,6 +8,8 @@ const SPEED := 1.2
 const LEAD_SECONDS := 0.8
 const PATH_STEPS := 12
 const PATH_HALF_WIDTH := 0.03
+## Pixels a right press may move and still be a click.
+const RIGHT_CLICK_SLOP := 5.0
 
 var generator: MotionGenerator
 var camera: Camera3D
@@ -17,6 +19,7 @@ var _rings: Array[MeshInstance3D] = []
 ## Rings not reached yet, in order.
 var _ahead: Array[MeshInstance3D] = []
 var _path_mesh := ImmediateMesh.new()
+var _right_pressed_at := Vector2.INF
 var _last_point := Vector3.INF
 var _last_time := 0.0
 
@@ -42,11 +45,16 @@ func _process(_delta: float) -> void:
 
 func _unhandled_input(event: InputEvent) -> void:
 	var click := event as InputEventMouseButton
-	if click == null or not click.pressed:
+	if click == null:
 		return
 	if click.button_index == MOUSE_BUTTON_RIGHT:
-		clear()
-	elif click.button_index == MOUSE_BUTTON_LEFT:
+		# A right drag orbits the camera: only a click (released where it
+		# was pressed) clears.
+		if click.pressed:
+			_right_pressed_at = click.position
+		elif click.position.distance_to(_right_pressed_at) <= RIGHT_CLICK_SLOP:
+			clear()
+	elif click.button_index == MOUSE_BUTTON_LEFT and click.pressed:
 		var point := ground_point(click.position)
 		if point != Vector3.INF:
 			place(point)

@@ -93,10 +93,10 @@ func _on_reached(index: int) -> void:
 	if ghost == null:
 		return
 	_ghosts.erase(index)
-	var fade := ghost.create_tween().set_parallel()
-	for mesh in ghost.find_children("*", "MeshInstance3D", false, false):
-		for surface in (mesh as MeshInstance3D).get_surface_override_material_count():
-			var material := (mesh as MeshInstance3D).get_surface_override_material(surface)
-			var color: Color = material.get_shader_parameter("color")
-			fade.tween_property(material, "shader_parameter/color", Color(color, 0.0), FADE_SECONDS)
-	fade.chain().tween_callback(ghost.queue_free)
+	var fade := ghost.create_tween()
+	for mesh: MeshInstance3D in ghost.find_children("*", "MeshInstance3D", false, false):
+		# The ghost's colour pass follows its depth pass (Mannequin.build_ghost).
+		var shaded := mesh.material_override.next_pass as ShaderMaterial
+		var color: Color = shaded.get_shader_parameter("color")
+		fade.tween_property(shaded, "shader_parameter/color", Color(color, 0.0), FADE_SECONDS)
+	fade.tween_callback(ghost.queue_free)

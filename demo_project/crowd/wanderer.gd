@@ -23,6 +23,7 @@ var style := "walk forward"
 var generator: MotionGenerator
 var _random := RandomNumberGenerator.new()
 var _skeleton: Skeleton3D
+var _hips := Vector3.INF
 
 
 ## `seed_value` makes the walk of this character repeatable.
@@ -34,6 +35,12 @@ func setup(seed_value: int) -> void:
 func _ready() -> void:
 	_skeleton = Mannequin.build()
 	add_child(_skeleton)
+	# Generated poses exist only in the skeleton's update: read the hips there.
+	var hips_bone := _skeleton.find_bone("Hips")
+	_skeleton.skeleton_updated.connect(
+		func() -> void:
+			_hips = _skeleton.global_transform * _skeleton.get_bone_global_pose(hips_bone).origin
+	)
 	generator = MotionGenerator.new()
 	generator.name = "MotionGenerator"
 	generator.skeleton = NodePath("../Skeleton3D")
@@ -46,13 +53,13 @@ func _ready() -> void:
 
 func _process(_delta: float) -> void:
 	# The first waypoint once the clock runs (times count from it).
-	if generator.is_generating() and generator.get_waypoints().is_empty():
+	if generator.is_generating() and _hips != Vector3.INF and generator.get_waypoints().is_empty():
 		_next_waypoint(generator.get_time())
 
 
-## The hips in world space.
+## The shown hips in world space (INF before the first generated pose).
 func hips() -> Vector3:
-	return _skeleton.global_transform * _skeleton.get_bone_global_pose(0).origin
+	return _hips
 
 
 func _next_waypoint(start_time: float) -> void:

@@ -2,10 +2,11 @@ extends SceneTree
 ## Drives the demo scene as a player does, through Input.parse_input_event
 ## (SyntheticInput): a held W key walks the character where the camera looks
 ## and releasing it stops it, a click on the ground places a waypoint it
-## reaches, a prompt typed into the box changes what it does and comes back
-## with the Up key, a keyframe preset shows a ghost that goes once the pose
-## is reached. tests/godot/run.sh runs it in a copy of the demo project; it
-## prints "N passed, N failed".
+## reaches and a right click clears it, a prompt typed into the box changes
+## what it does and comes back with the Up key, a preset button applies its
+## prompt, a keyframe preset shows a ghost that goes once the pose is reached.
+## tests/godot/run.sh runs it in a copy of the demo project; it prints
+## "N passed, N failed".
 
 var main: Node3D
 var generator: MotionGenerator
@@ -116,6 +117,17 @@ func _click_a_waypoint() -> void:
 	print("  click on the ground: the hips passed %.2f m from the clicked point" % closest)
 	_check(closest < 0.4, "a clicked waypoint is reached (%.2f m)" % closest)
 	_check(reached.has(0), "waypoint_reached fired for the click")
+	SyntheticInput.click(root, screen, MOUSE_BUTTON_RIGHT)
+	await process_frame
+	await process_frame  # the rings are freed at the end of the frame that cleared them
+	var rings := main.get_node("Controls/ClickWaypoints").find_children(
+		"*", "MeshInstance3D", true, false
+	)
+	# What is left is the (empty) path line.
+	_check(
+		generator.get_waypoints().is_empty() and rings.size() == 1,
+		"a right click clears the waypoints and their rings (%d meshes left)" % rings.size()
+	)
 
 
 func _type_a_prompt() -> void:
