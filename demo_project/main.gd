@@ -67,7 +67,6 @@ func _add_controls() -> void:
 	keyframe_presets = KeyframePresets.new()
 	keyframe_presets.name = "KeyframePresets"
 	keyframe_presets.generator = generator
-	keyframe_presets.skeleton = skeleton
 	controls.add_child(keyframe_presets)
 
 

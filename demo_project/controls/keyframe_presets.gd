@@ -1,7 +1,8 @@
 class_name KeyframePresets
 extends Node3D
 ## Pose keyframes a few seconds ahead ("hands up at +2 s"): each is shown as a
-## translucent ghost of the character where it will stand, until reached.
+## translucent ghost of the character where the plan puts it then, until
+## reached.
 
 ## Preset -> [pose in PoseLibrary, seconds ahead].
 const PRESETS := {
@@ -11,29 +12,14 @@ const PRESETS := {
 }
 const GHOST_COLOR := Color(0.93, 0.42, 0.78, 0.35)
 const FADE_SECONDS := 0.6
-## Skeleton updates over which the character's velocity is measured (about
-## a second: a step's sway averages out).
-const HISTORY_UPDATES := 60
-## Slower than this the character is taken to stand (its hips sway).
-const STANDING_SPEED := 0.3
 
 var generator: MotionGenerator
-## The driven character's skeleton (its facing and place).
-var skeleton: Skeleton3D
 ## Ghosts by keyframe index in the generator's list.
 var _ghosts: Dictionary = {}
-## The shown hips (world space) of the last updates and their motion times.
-var _hips_history: Array[Vector3] = []
-var _hips_times: Array[float] = []
-## From the right thigh to the left one, now.
-var _left := Vector3.RIGHT
 
 
 func _ready() -> void:
 	generator.keyframe_reached.connect(_on_reached)
-	# Generated poses exist only in the skeleton's update (modifiers are not
-	# kept in the bone poses): sample them there.
-	skeleton.skeleton_updated.connect(_on_skeleton_updated)
 
 
 ## Adds the keyframe of a preset (a key of PRESETS) and shows its ghost.
@@ -45,8 +31,8 @@ func add(preset: String) -> void:
 	PoseLibrary.apply(ghost, pose_name)
 	generator.add_pose_keyframe(ghost, generator.get_time() + seconds_ahead)
 	add_child(ghost)
-	ghost.global_transform = _expected_place(seconds_ahead)
 	_ghosts[generator.get_keyframes().size() - 1] = ghost
+	_process(0.0)
 
 
 ## Removes every ghost (the keyframes themselves are the generator's).
@@ -56,36 +42,15 @@ func clear() -> void:
 	_ghosts.clear()
 
 
-func _on_skeleton_updated() -> void:
-	_hips_history.push_back(_global_bone("Hips"))
-	_hips_times.push_back(generator.get_time())
-	if _hips_history.size() > HISTORY_UPDATES:
-		_hips_history.pop_front()
-		_hips_times.pop_front()
-	_left = _global_bone("LeftUpperLeg") - _global_bone("RightUpperLeg")
-
-
-# Where the character will stand in `seconds`, going on as it goes now,
-# facing as it faces now.
-func _expected_place(seconds: float) -> Transform3D:
-	var hips: Vector3 = (
-		_hips_history.back() if not _hips_history.is_empty() else skeleton.global_position
-	)
-	var velocity := Vector3.ZERO
-	var span: float = _hips_times.back() - _hips_times.front() if _hips_times.size() > 1 else 0.0
-	if span > 0.0:
-		velocity = (_hips_history.back() - _hips_history.front()) / span
-	velocity.y = 0
-	if velocity.length() < STANDING_SPEED:
-		velocity = Vector3.ZERO
-	var forward := Vector3(_left.x, 0, _left.z).cross(Vector3.UP).normalized()
-	var place := Vector3(hips.x, skeleton.global_position.y, hips.z) + velocity * seconds
-	return Transform3D(Basis.looking_at(-forward), place)
-
-
-func _global_bone(bone_name: String) -> Vector3:
-	var bone := skeleton.find_bone(bone_name)
-	return skeleton.global_transform * skeleton.get_bone_global_pose(bone).origin
+# Each ghost stands where the motion generated so far puts the character at
+# its time; the place settles once a window has planned the pose.
+func _process(_delta: float) -> void:
+	var keyframes := generator.get_keyframes()
+	for index: int in _ghosts:
+		if index < keyframes.size():
+			var planned: Variant = generator.get_planned_root(keyframes[index].time)
+			if planned is Transform3D:
+				(_ghosts[index] as Node3D).global_transform = planned
 
 
 func _on_reached(index: int) -> void:

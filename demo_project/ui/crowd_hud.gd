@@ -8,10 +8,11 @@ extends PanelContainer
 const REFRESH_SECONDS := 0.5
 
 var wanderers: Array[Wanderer] = []
+## Cores generation used between the last two refreshes.
+var cores := 0.0
 var _text: Label
 var _last_cpu_seconds := NAN
 var _last_wall_seconds := 0.0
-var _cores := 0.0
 
 
 func _ready() -> void:
@@ -35,7 +36,7 @@ func refresh() -> void:
 		return
 	var wall := Time.get_ticks_usec() / 1e6
 	if not is_nan(_last_cpu_seconds) and wall > _last_wall_seconds:
-		_cores = (totals.cpu_seconds - _last_cpu_seconds) / (wall - _last_wall_seconds)
+		cores = (totals.cpu_seconds - _last_cpu_seconds) / (wall - _last_wall_seconds)
 	_last_cpu_seconds = totals.cpu_seconds
 	_last_wall_seconds = wall
 	_text.text = (
@@ -43,7 +44,7 @@ func refresh() -> void:
 		. join(
 			[
 				"characters     %3d generating of %d" % [totals.generating, wanderers.size()],
-				"inference      %5.2f cores" % _cores,
+				"inference      %5.2f cores" % cores,
 				"underrun       %5.2f %% of played time" % (100.0 * totals.underrun_ratio),
 				"windows        %6d (batches up to %d)" % [totals.windows, totals.largest_batch],
 				"fps            %4d" % Engine.get_frames_per_second(),

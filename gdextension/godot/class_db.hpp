@@ -70,7 +70,9 @@ public:
 
 template <class A>
 PropertyInfo property_info_of(const std::string &name) {
-	return PropertyInfo(TypeInfo<A>::type, name, PROPERTY_HINT_NONE, "", PROPERTY_USAGE_DEFAULT, TypeInfo<A>::class_name());
+	// A Variant is typed NIL; the flag tells the engine it is any value, not void.
+	const uint32_t usage = TypeInfo<A>::type == Variant::NIL ? PROPERTY_USAGE_DEFAULT | PROPERTY_USAGE_NIL_IS_VARIANT : PROPERTY_USAGE_DEFAULT;
+	return PropertyInfo(TypeInfo<A>::type, name, PROPERTY_HINT_NONE, "", usage, TypeInfo<A>::class_name());
 }
 
 // Checks and converts one Variant argument as the engine would; on failure

@@ -866,6 +866,17 @@ double MotionGenerator::get_time() const {
 	return planner_ ? planner_->time() : 0.0;
 }
 
+Variant MotionGenerator::get_planned_root(double at_seconds) const {
+	Pose planned;
+	if (!planner_ || !std::isfinite(at_seconds) || !planner_->sample(at_seconds, planned)) {
+		return Variant();
+	}
+	Frame character;
+	character.basis = heading_rotation(anchor_.yaw_angle + planned.heading);
+	character.origin = anchor_.to_world(glm::vec3(planned.root_position.x, 0.0f, planned.root_position.z));
+	return to_godot(character);
+}
+
 Dictionary MotionGenerator::get_stats() const {
 	Dictionary stats;
 	stats.set("last_latency_ms", last_latency_ms_);
@@ -1484,6 +1495,7 @@ void MotionGenerator::_bind_methods() {
 	ClassDB::bind_method(D_METHOD("reset", "pose"), &MotionGenerator::reset, DEFVAL(Variant()));
 	ClassDB::bind_method(D_METHOD("get_time"), &MotionGenerator::get_time);
 	ClassDB::bind_method(D_METHOD("get_stats"), &MotionGenerator::get_stats);
+	ClassDB::bind_method(D_METHOD("get_planned_root", "at_seconds"), &MotionGenerator::get_planned_root);
 	ClassDB::bind_method(D_METHOD("get_joint_names"), &MotionGenerator::get_joint_names);
 	ClassDB::bind_method(D_METHOD("is_model_loaded"), &MotionGenerator::is_model_loaded);
 	ClassDB::bind_method(D_METHOD("is_generating"), &MotionGenerator::is_generating);

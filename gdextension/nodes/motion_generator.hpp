@@ -96,6 +96,7 @@ public:
 	void clear_constraints();
 	void reset(const godot::Variant &pose);
 	double get_time() const;
+	godot::Variant get_planned_root(double at_seconds) const;
 	godot::Dictionary get_stats() const;
 	godot::PackedStringArray get_joint_names() const;
 	bool is_model_loaded() const;

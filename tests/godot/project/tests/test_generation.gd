@@ -78,6 +78,25 @@ func test_waypoint_is_reached_and_signalled() -> void:
 	var target := character.last_position("Hips") + Vector3(5.0, 0.0, 0.0)
 	target.y = 0.0
 	generator.add_waypoint(target, 4.0)
+	# Where the plan puts the character: now, under the hips; at 4 s, on the
+	# waypoint (once generated that far).
+	await character.wait_until_time(tree, 2.5)
+	var now: Variant = generator.get_planned_root(generator.get_time())
+	var at_waypoint: Variant = generator.get_planned_root(4.0)
+	check(now is Transform3D and at_waypoint is Transform3D, "the planned root is known")
+	if now is Transform3D and at_waypoint is Transform3D:
+		var under_hips := _ground_distance(
+			(now as Transform3D).origin, character.last_position("Hips")
+		)
+		var planned_miss := _ground_distance((at_waypoint as Transform3D).origin, target)
+		print(
+			(
+				"  planned root: %.3f m from the shown hips, %.2f m from the waypoint at its time"
+				% [under_hips, planned_miss]
+			)
+		)
+		check(under_hips < 0.1, "the planned root now is under the hips (%.3f m)" % under_hips)
+		check(planned_miss < 0.3, "the plan meets the waypoint (%.2f m)" % planned_miss)
 	check(await character.wait_until_time(tree, 5.0), "the clock reached 5 s")
 	var closest := INF
 	for sample in character.samples:

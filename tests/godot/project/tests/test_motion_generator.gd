@@ -18,6 +18,7 @@ func test_instanced_from_gdscript() -> void:
 	check_eq(
 		generator.is_model_loaded(), false, "nothing loads before the node is playing in the tree"
 	)
+	check_eq(generator.get_planned_root(1.0), null, "no planned root before any motion")
 	generator.free()
 
 
