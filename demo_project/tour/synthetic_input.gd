@@ -26,6 +26,14 @@ static func click(viewport: Viewport, position: Vector2, button := MOUSE_BUTTON_
 		Input.parse_input_event(event)
 
 
+## `notches` turns of the mouse wheel at `position` (viewport coordinates):
+## positive zooms out (wheel down), negative in.
+static func wheel(viewport: Viewport, position: Vector2, notches: int) -> void:
+	var button := MOUSE_BUTTON_WHEEL_DOWN if notches > 0 else MOUSE_BUTTON_WHEEL_UP
+	for notch in absi(notches):
+		click(viewport, position, button)
+
+
 ## Types `text` one character per frame into whatever has the focus, then Enter.
 static func type_line(tree: SceneTree, text: String) -> void:
 	for character in text:

@@ -66,6 +66,9 @@ func _prompts() -> void:
 
 func _waypoints() -> void:
 	var camera: Camera3D = main.camera
+	# Zoom out with the wheel to see the path.
+	SyntheticInput.wheel(get_viewport(), get_viewport().get_visible_rect().get_center(), 4)
+	await _motion(0.6)
 	var hips: Vector3 = main.hips
 	var forward := -camera.global_basis.z
 	forward = Vector3(forward.x, 0, forward.z).normalized()
@@ -82,6 +85,7 @@ func _waypoints() -> void:
 
 
 func _keyframe() -> void:
+	SyntheticInput.wheel(get_viewport(), get_viewport().get_visible_rect().get_center(), -4)
 	main.keyframe_presets.add("Hands up at +2 s")
 	await _motion(0.8)
 	await _shot("keyframe_ghost")
