@@ -11,42 +11,22 @@ const HEADLESS_SECONDS := 4.0
 const CROWD_SCENE := "res://crowd/crowd.tscn"
 
 var generator: MotionGenerator
-var skeleton: Skeleton3D
-## The character's hips in world space (INF until the first generated pose).
-var hips := Vector3.INF
 var prompt_bar: PromptBar
 var timeline: PromptTimeline
 var keyframe_presets: KeyframePresets
 var click_waypoints: ClickWaypoints
 var _start := Vector3.INF
 
-@onready var character: Node3D = $Character
+@onready var character: DemoCharacter = $Character
 @onready var camera: OrbitCamera = $Camera
 @onready var controls: Node3D = $Controls
 @onready var ui: CanvasLayer = $UI
 
 
 func _ready() -> void:
-	if not ClassDB.class_exists("MotionGenerator"):
-		_report("ARDY extension NOT loaded: build it with scripts/demo.sh.", false)
-		return
-	skeleton = Mannequin.build()
-	character.add_child(skeleton)
-	# Generated poses exist in the skeleton's update (modifiers are not kept
-	# in the bone poses), so read them when it has finished.
-	var hips_bone := skeleton.find_bone("Hips")
-	skeleton.skeleton_updated.connect(
-		func() -> void:
-			hips = skeleton.global_transform * skeleton.get_bone_global_pose(hips_bone).origin
-	)
-	generator = MotionGenerator.new()
-	generator.name = "MotionGenerator"
-	generator.skeleton = NodePath("../Skeleton3D")
+	generator = character.generator
 	generator.prompt = "walk forward"
-	generator.playing = true
-	generator.generation_failed.connect(func(message: String) -> void: printerr(message))
-	character.add_child(generator)
-	camera.follow = func() -> Vector3: return hips
+	camera.follow = func() -> Vector3: return character.hips
 	_add_controls()
 	_add_ui()
 
@@ -62,7 +42,7 @@ func _add_controls() -> void:
 	click_waypoints.name = "ClickWaypoints"
 	click_waypoints.generator = generator
 	click_waypoints.camera = camera
-	click_waypoints.hips_position = func() -> Vector3: return hips
+	click_waypoints.hips_position = func() -> Vector3: return character.hips
 	controls.add_child(click_waypoints)
 	keyframe_presets = KeyframePresets.new()
 	keyframe_presets.name = "KeyframePresets"
@@ -107,6 +87,7 @@ func _on_prompt_chosen(text: String) -> void:
 
 
 func _process(_delta: float) -> void:
+	var hips := character.hips
 	if hips == Vector3.INF or not _reports_headless():
 		return
 	if _start == Vector3.INF:

@@ -192,6 +192,8 @@ what=${1:-all}
 install_host_tools
 case $what in
   all) install_godot; install_ort; install_glm; install_json; install_catch2; install_python ;;
-  runtime) install_godot; install_ort; install_glm; install_json ;;
+  # The build (scripts/build.sh) compiles the C++ tests too, so Catch2 is
+  # part of what the demo needs; the Python environment is not.
+  runtime) install_godot; install_ort; install_glm; install_json; install_catch2 ;;
   *) echo "usage: deps.sh [all|runtime]" >&2; exit 2 ;;
 esac

@@ -17,9 +17,6 @@ var wanderers: Array[Wanderer] = []
 
 
 func _ready() -> void:
-	if not ClassDB.class_exists("MotionGenerator"):
-		push_error("ARDY extension not loaded: build it with scripts/demo.sh")
-		return
 	# Start on a grid so no two characters begin inside each other.
 	var columns := ceili(sqrt(COUNT))
 	for i in COUNT:

@@ -1,5 +1,5 @@
 class_name Wanderer
-extends Node3D
+extends DemoCharacter
 ## One crowd character: a mannequin that walks (in its own style) from one
 ## random waypoint to the next inside a disc, and now and then waves.
 
@@ -20,10 +20,7 @@ const WAVE_SECONDS := 2.5
 var area_centre := Vector3.ZERO
 var area_radius := 12.0
 var style := "walk forward"
-var generator: MotionGenerator
 var _random := RandomNumberGenerator.new()
-var _skeleton: Skeleton3D
-var _hips := Vector3.INF
 
 
 ## `seed_value` makes the walk of this character repeatable.
@@ -33,33 +30,15 @@ func setup(seed_value: int) -> void:
 
 
 func _ready() -> void:
-	_skeleton = Mannequin.build()
-	add_child(_skeleton)
-	# Generated poses exist only in the skeleton's update: read the hips there.
-	var hips_bone := _skeleton.find_bone("Hips")
-	_skeleton.skeleton_updated.connect(
-		func() -> void:
-			_hips = _skeleton.global_transform * _skeleton.get_bone_global_pose(hips_bone).origin
-	)
-	generator = MotionGenerator.new()
-	generator.name = "MotionGenerator"
-	generator.skeleton = NodePath("../Skeleton3D")
 	generator.seed = _random.randi()
 	generator.prompt = style
-	generator.playing = true
 	generator.waypoint_reached.connect(_on_waypoint_reached)
-	add_child(generator)
 
 
 func _process(_delta: float) -> void:
 	# The first waypoint once the clock runs (times count from it).
-	if generator.is_generating() and _hips != Vector3.INF and generator.get_waypoints().is_empty():
+	if generator.is_generating() and hips != Vector3.INF and generator.get_waypoints().is_empty():
 		_next_waypoint(generator.get_time())
-
-
-## The shown hips in world space (INF before the first generated pose).
-func hips() -> Vector3:
-	return _hips
 
 
 func _next_waypoint(start_time: float) -> void:
@@ -67,9 +46,8 @@ func _next_waypoint(start_time: float) -> void:
 	var angle := _random.randf() * TAU
 	var distance := sqrt(_random.randf()) * area_radius
 	var target := area_centre + Vector3(cos(angle), 0, sin(angle)) * distance
-	var from := hips()
 	var speed: float = STYLES[style]
-	var seconds := Vector2(target.x - from.x, target.z - from.z).length() / speed
+	var seconds := Vector2(target.x - hips.x, target.z - hips.z).length() / speed
 	generator.add_waypoint(target, start_time + LEAD_SECONDS + seconds)
 
 

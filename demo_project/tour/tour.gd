@@ -69,7 +69,7 @@ func _waypoints() -> void:
 	# Zoom out with the wheel to see the path.
 	SyntheticInput.wheel(get_viewport(), get_viewport().get_visible_rect().get_center(), 4)
 	await _motion(0.6)
-	var hips: Vector3 = main.hips
+	var hips: Vector3 = main.character.hips
 	var forward := -camera.global_basis.z
 	forward = Vector3(forward.x, 0, forward.z).normalized()
 	var right := Vector3(-forward.z, 0, forward.x)

@@ -22,7 +22,7 @@ func _run() -> void:
 	var deadline := Time.get_ticks_msec() + 120000
 	await process_frame  # the scene is ready, its characters made
 	while (
-		wanderers.any(func(one: Wanderer) -> bool: return one.hips() == Vector3.INF)
+		wanderers.any(func(one: Wanderer) -> bool: return one.hips == Vector3.INF)
 		and Time.get_ticks_msec() < deadline
 	):
 		await process_frame
@@ -32,7 +32,7 @@ func _run() -> void:
 	_check(generating.size() == 50, "all 50 characters generate (%d)" % generating.size())
 	var starts: Array[Vector3] = []
 	for one in wanderers:
-		starts.append(one.hips())
+		starts.append(one.hips)
 	var styles := {}
 	for one in wanderers:
 		styles[one.style] = true
@@ -47,7 +47,7 @@ func _run() -> void:
 	var figures := hud.figures()
 	var moved := 0
 	for i in wanderers.size():
-		var now := wanderers[i].hips()
+		var now := wanderers[i].hips
 		if Vector2(now.x - starts[i].x, now.z - starts[i].z).length() > 2.0:
 			moved += 1
 	print("  %d of 50 walked over 2 m in %.0f s" % [moved, SECONDS])

@@ -52,7 +52,7 @@ func _run() -> void:
 				. append(
 					{
 						"time": generator.get_time(),
-						"hips": main.get("hips"),
+						"hips": main.character.hips,
 						"hands_over_head":
 						(
 							minf(bone_height.call("LeftHand"), bone_height.call("RightHand"))
@@ -93,7 +93,7 @@ func _walk_with_the_w_key() -> void:
 
 func _click_a_waypoint() -> void:
 	var camera: Camera3D = main.get_node("Camera")
-	var hips: Vector3 = main.get("hips")
+	var hips: Vector3 = main.character.hips
 	# A point on the ground 2 m beyond the character, as seen from the camera.
 	var forward := -camera.global_basis.z
 	forward = Vector3(forward.x, 0, forward.z).normalized()
@@ -178,7 +178,7 @@ func _add_a_keyframe_preset() -> void:
 		return
 	# The ghost stands where the character stands.
 	var ghost_place: Vector3 = ghosts[0].global_position
-	var hips: Vector3 = main.hips
+	var hips: Vector3 = main.character.hips
 	var apart := Vector2(ghost_place.x - hips.x, ghost_place.z - hips.z).length()
 	print("  keyframe ghost %.2f m from the hips" % apart)
 	_check(apart < 0.5, "the ghost stands at the character (%.2f m)" % apart)
