@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Sets up what is missing, builds everything and runs every test suite:
 # C++ (Catch2 via ctest, plus AddressSanitizer and ThreadSanitizer builds),
-# Python (pytest), GDScript lint, and the engine tests (real Godot, headless).
+# the C# bindings (Mono), Python (pytest), GDScript lint, and the engine tests
+# (real Godot, headless).
 # Ends with one "N passed, N failed, N skipped" line over all suites, counting
-# C++ tests by Catch2 test case, Python tests by pytest item and engine tests by
-# test method and check; exits non-zero on any failure.
+# C++ tests by Catch2 test case, C# and engine tests by check, Python tests by
+# pytest item; exits non-zero on any failure.
 #
 # Tests that need the Bandai Namco data skip without it (ARDY_BANDAI_DIR, by
 # default ../shared/data/bandai); ARDY_REQUIRE_DATA=1 (set by .ci/run) makes
@@ -65,6 +66,18 @@ for sanitizer in address thread; do
     record "cpp ($sanitizer)" 0 1
   fi
 done
+
+echo "== C# bindings (Mono)"
+bash bindings/csharp/run_tests.sh 2>&1 | tee "$LOGS/csharp.log"
+cs_status=${PIPESTATUS[0]}
+# The runner's last line: "N passed, N failed" (one per check).
+read -r cs_passed cs_failed < <(sed -nE 's/^([0-9]+) passed, ([0-9]+) failed$/\1 \2/p' "$LOGS/csharp.log" | tail -1)
+cs_passed=${cs_passed:-0}
+cs_failed=${cs_failed:-1}
+if [ "$cs_status" -ne 0 ] && [ "$cs_failed" -eq 0 ]; then
+  cs_failed=1  # failed outside the checks
+fi
+record "csharp" "$cs_passed" "$cs_failed"
 
 echo "== Python tests"
 .venv/bin/pytest -q -rfEs -p no:cacheprovider tests/python 2>&1 | tee "$LOGS/python.log"
