@@ -111,7 +111,8 @@ install_ort() {
   rm -rf "$ort" "$DEPS/ort-tmp"; mkdir -p "$ort/lib" "$ort/include" "$DEPS/ort-tmp"
   pip download -q --no-deps --only-binary=:all: --python-version 3.11 --platform manylinux_2_28_x86_64 \
     "onnxruntime==$ORT_VERSION" -d "$CACHE/wheels"
-  python3 -m zipfile -e "$CACHE"/wheels/onnxruntime-"$ORT_VERSION"-*.whl "$DEPS/ort-tmp"
+  # The Linux wheel only: the cache may hold the Windows one too (build_windows.sh).
+  python3 -m zipfile -e "$CACHE"/wheels/onnxruntime-"$ORT_VERSION"-*manylinux_2_28_x86_64.whl "$DEPS/ort-tmp"
   cp "$DEPS/ort-tmp/onnxruntime/capi/libonnxruntime.so.$ORT_VERSION" "$ort/lib/"
   ln -sf "libonnxruntime.so.$ORT_VERSION" "$ort/lib/libonnxruntime.so.1"
   ln -sf libonnxruntime.so.1 "$ort/lib/libonnxruntime.so"

@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # Sets up what is missing, builds everything and runs every test suite:
 # C++ (Catch2 via ctest, plus AddressSanitizer and ThreadSanitizer builds),
-# the C# bindings (Mono), Python (pytest), GDScript lint, and the engine tests
-# (real Godot, headless).
+# the C# bindings (Mono), the Windows build (MinGW-w64, run under Wine),
+# Python (pytest), GDScript lint, and the engine tests (real Godot, headless).
 # Ends with one "N passed, N failed, N skipped" line over all suites, counting
-# C++ tests by Catch2 test case, C# and engine tests by check, Python tests by
-# pytest item; exits non-zero on any failure.
+# C++ tests by Catch2 test case, C#, Windows and engine tests by check, Python
+# tests by pytest item; exits non-zero on any failure.
 #
 # Tests that need the Bandai Namco data skip without it (ARDY_BANDAI_DIR, by
 # default ../shared/data/bandai); ARDY_REQUIRE_DATA=1 (set by .ci/run) makes
@@ -67,17 +67,26 @@ for sanitizer in address thread; do
   fi
 done
 
+# A suite that prints one line per check and ends with "N passed, N failed".
+run_checks() {  # suite command...
+  local suite=$1 log=$LOGS/$1.log
+  shift
+  "$@" 2>&1 | tee "$log"
+  local status=${PIPESTATUS[0]} passed failed
+  read -r passed failed < <(sed -nE 's/^([0-9]+) passed, ([0-9]+) failed$/\1 \2/p' "$log" | tail -1)
+  passed=${passed:-0}
+  failed=${failed:-1}
+  if [ "$status" -ne 0 ] && [ "$failed" -eq 0 ]; then
+    failed=1  # failed outside the checks
+  fi
+  record "$suite" "$passed" "$failed"
+}
+
 echo "== C# bindings (Mono)"
-bash bindings/csharp/run_tests.sh 2>&1 | tee "$LOGS/csharp.log"
-cs_status=${PIPESTATUS[0]}
-# The runner's last line: "N passed, N failed" (one per check).
-read -r cs_passed cs_failed < <(sed -nE 's/^([0-9]+) passed, ([0-9]+) failed$/\1 \2/p' "$LOGS/csharp.log" | tail -1)
-cs_passed=${cs_passed:-0}
-cs_failed=${cs_failed:-1}
-if [ "$cs_status" -ne 0 ] && [ "$cs_failed" -eq 0 ]; then
-  cs_failed=1  # failed outside the checks
-fi
-record "csharp" "$cs_passed" "$cs_failed"
+run_checks csharp bash bindings/csharp/run_tests.sh
+
+echo "== Windows build (MinGW-w64, checked under Wine)"
+run_checks windows bash tests/windows/run.sh
 
 echo "== Python tests"
 .venv/bin/pytest -q -rfEs -p no:cacheprovider tests/python 2>&1 | tee "$LOGS/python.log"

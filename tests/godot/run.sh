@@ -102,21 +102,20 @@ DEMO=$WORK/demo
 cp -r "$ROOT/demo_project" "$DEMO"
 rm -rf "$DEMO/.godot"
 cp -r "$ADDON/bin" "$DEMO/addons/ardy/"
-cp "$ROOT/tests/godot/demo/test_demo_input.gd" "$ROOT/tests/godot/demo/test_crowd.gd" "$DEMO/"
+cp "$ROOT"/tests/godot/demo/*.gd "$DEMO/"
 # A first import can end in an engine crash at exit after writing its cache.
 godot --path "$DEMO" --import >"$WORK/demo-import.log" 2>&1 || true
-godot --path "$DEMO" -s res://test_demo_input.gd 2>&1 | tee "$WORK/demo.log" || status=1
-python3 "$ROOT/tests/godot/check_log.py" "$WORK/demo.log" "engine output of the demo test" \
-  >"$WORK/demo-errors.log" 2>&1 || status=1
-cat "$WORK/demo-errors.log"
-godot --path "$DEMO" -s res://test_crowd.gd 2>&1 | tee "$WORK/crowd.log" || status=1
-python3 "$ROOT/tests/godot/check_log.py" "$WORK/crowd.log" "engine output of the crowd test" \
-  >"$WORK/crowd-errors.log" 2>&1 || status=1
-cat "$WORK/crowd-errors.log"
+demo_logs=()
+for test in test_demo_input test_crowd test_scene_switch; do
+  godot --path "$DEMO" -s "res://$test.gd" 2>&1 | tee "$WORK/$test.log" || status=1
+  python3 "$ROOT/tests/godot/check_log.py" "$WORK/$test.log" "engine output of $test" \
+    >"$WORK/$test-errors.log" 2>&1 || status=1
+  cat "$WORK/$test-errors.log"
+  demo_logs+=("$WORK/$test.log" "$WORK/$test-errors.log")
+done
 
 read -r passed failed < <(grep -hE '^[0-9]+ passed, [0-9]+ failed$' "$WORK/runner.log" "$WORK/runner-errors.log" \
-    "$WORK/harness.log" "$WORK/docs.log" "$WORK/pack.log" "$WORK/pack-errors.log" "$WORK/demo.log" \
-    "$WORK/demo-errors.log" "$WORK/crowd.log" "$WORK/crowd-errors.log" | awk '{ p += $1; f += $3 } END { print p + 0, f + 0 }')
+    "$WORK/harness.log" "$WORK/docs.log" "$WORK/pack.log" "$WORK/pack-errors.log" "${demo_logs[@]}" | awk '{ p += $1; f += $3 } END { print p + 0, f + 0 }')
 if [ "$passed" -eq 0 ] || [ $status -ne 0 ]; then
   failed=$((failed > 0 ? failed : 1))
 fi
