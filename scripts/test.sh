@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # Sets up what is missing, builds everything and runs every test suite:
 # C++ (Catch2 via ctest, plus AddressSanitizer and ThreadSanitizer builds),
-# the C# bindings (Mono), the Windows build (MinGW-w64, run under Wine),
-# Python (pytest), GDScript lint, and the engine tests (real Godot, headless).
+# the C# bindings (Mono), the Windows build (MinGW-w64, run under Wine), the
+# packaging scripts, Python (pytest), GDScript lint, and the engine tests (real
+# Godot, headless).
 # Ends with one "N passed, N failed, N skipped" line over all suites, counting
-# C++ tests by Catch2 test case, C#, Windows and engine tests by check, Python
-# tests by pytest item; exits non-zero on any failure.
+# C++ tests by Catch2 test case, C#, Windows, packaging and engine tests by
+# check, Python tests by pytest item; exits non-zero on any failure.
 #
 # Tests that need the Bandai Namco data skip without it (ARDY_BANDAI_DIR, by
 # default ../shared/data/bandai); ARDY_REQUIRE_DATA=1 (set by .ci/run) makes
@@ -87,6 +88,9 @@ run_checks csharp bash bindings/csharp/run_tests.sh
 
 echo "== Windows build (MinGW-w64, checked under Wine)"
 run_checks windows bash tests/windows/run.sh
+
+echo "== Packaging (native archives, Godot addon zip)"
+run_checks packaging bash tests/packaging/run.sh
 
 echo "== Python tests"
 .venv/bin/pytest -q -rfEs -p no:cacheprovider tests/python 2>&1 | tee "$LOGS/python.log"
