@@ -6,6 +6,7 @@
 #include "nodes/motion_goals.hpp"
 #include "nodes/motion_generator.hpp"
 #include "nodes/motion_pose_modifier.hpp"
+#include "nodes/motion_timeline.hpp"
 
 #include "doc_classes.gen.hpp"
 
@@ -19,6 +20,11 @@ void initialize(void *, GDExtensionInitializationLevel level) {
 	if (level == GDEXTENSION_INITIALIZATION_SCENE) {
 		ClassDB::register_class<ardy::MotionWaypoint>();
 		ClassDB::register_class<ardy::MotionKeyframe>();
+		ClassDB::register_class<ardy::MotionPrompt>();
+		ClassDB::register_class<ardy::MotionPath>();
+		ClassDB::register_class<ardy::MotionJointTarget>();
+		ClassDB::register_class<ardy::MotionContact>();
+		ClassDB::register_class<ardy::MotionTimeline>();
 		ClassDB::register_class<ardy::MotionGenerator>();
 		ClassDB::register_class<ardy::MotionPoseModifier>();
 	}

@@ -208,6 +208,18 @@ Planner::Planner(std::shared_ptr<const ModelPackage> package, PlannerConfig conf
     with_context("Planner config: prompt", [&] { package_->text_encoder().normalize_prompt(*config_.prompt); });
     inbox_.push_back(PromptCommand{0, true, *config_.prompt});
   }
+  for (size_t i = 0; i < config_.initial_prompts.size(); ++i) {
+    const PromptEvent& event = config_.initial_prompts[i];
+    const std::string where = "Planner config: initial_prompts[" + std::to_string(i) + "]";
+    if (event.frame < 0) throw Error(where + ": frame is " + std::to_string(event.frame) + ", expected >= 0");
+    if (event.text) with_context(where.c_str(), [&] { package_->text_encoder().normalize_prompt(*event.text); });
+    inbox_.push_back(PromptCommand{event.frame, event.frame == 0, event.text});
+  }
+  for (size_t i = 0; i < config_.initial_constraints.size(); ++i) {
+    validate_constraint(config_.initial_constraints[i], p.layout(),
+                        "Planner config: initial_constraints[" + std::to_string(i) + "]");
+    inbox_.push_back(AddConstraintCommand{next_constraint_id_.fetch_add(1), config_.initial_constraints[i]});
+  }
   low_signal_ = true;  // the queue is empty: the first window is due
   worker_ = std::thread([this] { worker_main(); });
 }
@@ -374,6 +386,13 @@ void Planner::clear_prompt_at(double time) {
   push(PromptCommand{std::max(frame, now_frame), frame <= now_frame, std::nullopt}, frame <= now_frame);
 }
 
+void Planner::reset_prompts_at(double time, std::optional<std::string> text) {
+  const int64_t frame = frame_of(time, "reset_prompts_at");
+  if (text) with_context("reset_prompts_at", [&] { package_->text_encoder().normalize_prompt(*text); });
+  const int64_t now_frame = playhead_frame();
+  push(PromptCommand{std::max(frame, now_frame), frame <= now_frame, std::move(text), true}, true);
+}
+
 Planner::ConstraintId Planner::add_constraint(Constraint constraint) {
   validate_constraint(constraint, package_->layout(), std::string("add_constraint"));
   const ConstraintId id = next_constraint_id_.fetch_add(1);
@@ -425,59 +444,63 @@ Planner::ConstraintId Planner::add_keyframe(double time, std::vector<double> fea
   return add_constraint(std::move(k));
 }
 
-Planner::ConstraintId Planner::add_keyframe_pose(double time, const Pose& pose, bool include_root) {
-  const int64_t frame = frame_of(time, "add_keyframe_pose");
-  if (pose.local_rotations.size() != joints_) {
-    throw Error("add_keyframe_pose: the pose has " + std::to_string(pose.local_rotations.size()) +
-                " rotations, expected one per joint (" + std::to_string(joints_) + ")");
+PoseKeyframe keyframe_from_pose(const ModelPackage& package, int64_t frame, const Pose& pose, bool include_root,
+                                const char* what) {
+  const Skeleton& skeleton = package.skeleton();
+  const size_t joints = skeleton.joint_count();
+  if (pose.local_rotations.size() != joints) {
+    throw Error(std::string(what) + ": the pose has " + std::to_string(pose.local_rotations.size()) +
+                " rotations, expected one per joint (" + std::to_string(joints) + ")");
   }
-  check_finite("add_keyframe_pose", "root_position.x", pose.root_position.x);
-  check_finite("add_keyframe_pose", "root_position.y", pose.root_position.y);
-  check_finite("add_keyframe_pose", "root_position.z", pose.root_position.z);
-  check_finite("add_keyframe_pose", "heading", pose.heading);
-  std::vector<glm::mat3> local(joints_);
-  for (size_t j = 0; j < joints_; ++j) {
+  check_finite(what, "root_position.x", pose.root_position.x);
+  check_finite(what, "root_position.y", pose.root_position.y);
+  check_finite(what, "root_position.z", pose.root_position.z);
+  check_finite(what, "heading", pose.heading);
+  std::vector<glm::mat3> local(joints);
+  for (size_t j = 0; j < joints; ++j) {
     const glm::quat& q = pose.local_rotations[j];
     const float n = glm::length(q);
     if (!std::isfinite(n) || n < 1e-6f) {
-      throw Error("add_keyframe_pose: local_rotations[" + std::to_string(j) + "] (" + package_->skeleton().name(j) +
+      throw Error(std::string(what) + ": local_rotations[" + std::to_string(j) + "] (" + skeleton.name(j) +
                   ") is not a finite non-zero quaternion");
     }
     local[j] = matrix_from_quat(q / n);
   }
-  const Skeleton& skeleton = package_->skeleton();
   const GlobalPose global = forward_kinematics(skeleton, pose.root_position, local);
-  std::vector<double> features =
-      with_context("add_keyframe_pose", [&] {
-        return pose_features(package_->layout(), global.rotations, global.positions, pose.heading);
-      });
-  return add_keyframe(static_cast<double>(frame) / fps_, std::move(features), include_root);
+  PoseKeyframe keyframe;
+  keyframe.frame = frame;
+  keyframe.features = with_context(what, [&] {
+    return pose_features(package.layout(), global.rotations, global.positions, pose.heading);
+  });
+  keyframe.include_root = include_root;
+  validate_constraint(keyframe, package.layout(), what);
+  return keyframe;
 }
 
-Planner::ConstraintId Planner::add_joint_target(const JointTargetSpec& spec) {
-  const int64_t frame = frame_of(spec.time, "add_joint_target");
-  const size_t joint = with_context("add_joint_target", [&] { return joint_index(package_->skeleton(), spec.joint); });
+JointTarget joint_target_from_spec(const ModelPackage& package, int64_t frame, const JointTargetSpec& spec,
+                                   const char* what) {
+  const size_t joint = with_context(what, [&] { return joint_index(package.skeleton(), spec.joint); });
   if (!spec.position && !spec.rotation) {
-    throw Error("add_joint_target: joint '" + spec.joint + "' has neither a position nor a rotation");
+    throw Error(std::string(what) + ": joint '" + spec.joint + "' has neither a position nor a rotation");
   }
   std::optional<glm::dmat3> rotation;
   if (spec.rotation) {
     const glm::dquat& q = *spec.rotation;
     const double n = glm::length(q);
     if (!std::isfinite(n) || n < 1e-9) {
-      throw Error("add_joint_target: rotation of joint '" + spec.joint + "' is not a finite non-zero quaternion");
+      throw Error(std::string(what) + ": rotation of joint '" + spec.joint + "' is not a finite non-zero quaternion");
     }
     rotation = glm::mat3_cast(q / n);
   }
   if (spec.position) {
-    check_finite("add_joint_target", "position.x", spec.position->x);
-    check_finite("add_joint_target", "position.y", spec.position->y);
-    check_finite("add_joint_target", "position.z", spec.position->z);
+    check_finite(what, "position.x", spec.position->x);
+    check_finite(what, "position.y", spec.position->y);
+    check_finite(what, "position.z", spec.position->z);
   }
   JointTarget target;
   if (spec.root_xz && spec.position) {
-    check_finite("add_joint_target", "root_xz.x", spec.root_xz->x);
-    check_finite("add_joint_target", "root_xz.z", spec.root_xz->y);
+    check_finite(what, "root_xz.x", spec.root_xz->x);
+    check_finite(what, "root_xz.z", spec.root_xz->y);
     target = JointTarget::from_world(frame, joint, *spec.position, *spec.root_xz, rotation);
   } else {
     target.frame = frame;
@@ -485,8 +508,18 @@ Planner::ConstraintId Planner::add_joint_target(const JointTargetSpec& spec) {
     target.position = spec.position;
     target.rotation = rotation;
   }
-  validate_constraint(target, package_->layout(), "add_joint_target");
-  return add_constraint(std::move(target));
+  validate_constraint(target, package.layout(), what);
+  return target;
+}
+
+Planner::ConstraintId Planner::add_keyframe_pose(double time, const Pose& pose, bool include_root) {
+  return add_constraint(keyframe_from_pose(*package_, frame_of(time, "add_keyframe_pose"), pose, include_root,
+                                           "add_keyframe_pose"));
+}
+
+Planner::ConstraintId Planner::add_joint_target(const JointTargetSpec& spec) {
+  return add_constraint(joint_target_from_spec(*package_, frame_of(spec.time, "add_joint_target"), spec,
+                                               "add_joint_target"));
 }
 
 Planner::ConstraintId Planner::add_contact(double start_time, double end_time, const std::vector<std::string>& feet,
@@ -700,6 +733,11 @@ void Planner::apply_one(Command& command) {
     return first < horizon && last >= ph;
   };
   if (auto* p = std::get_if<PromptCommand>(&command)) {
+    if (p->drop_later) {
+      m.prompts.erase(std::remove_if(m.prompts.begin(), m.prompts.end(),
+                                     [&](const PromptEvent& event) { return event.frame > p->frame; }),
+                      m.prompts.end());
+    }
     m.prompts.push_back(PromptEvent{p->frame, std::move(p->text)});
     if (p->now) {
       request_splice(kAsap);

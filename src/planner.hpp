@@ -128,6 +128,13 @@ struct PlannerConfig {
   // races the first window; this does not): same seed, prompt and commands
   // give the same motion.
   std::optional<std::string> prompt;
+  // A whole timeline known before the start (a cut-scene, a bake): prompt
+  // events (frame, text; later ones override) and constraints in model
+  // frames, validated here and applied before the first window, so no window
+  // is made without them (the same config gives the same motion).
+  // The initial constraints get the ids 1..n in order (remove_constraint).
+  std::vector<PromptEvent> initial_prompts;
+  std::vector<Constraint> initial_constraints;
   // Replan buffer and queue.
   size_t min_buffer_frames = 0;               // B is at least this many frames
   double initial_latency_seconds = 0.1;       // latency assumed before a window has been measured
@@ -166,6 +173,14 @@ struct JointTargetSpec {
   std::optional<glm::dquat> rotation;  // world rotation
   std::optional<glm::dvec2> root_xz;
 };
+
+// The constraints Planner::add_keyframe_pose and add_joint_target add, for
+// callers that build a whole timeline first (PlannerConfig::initial_constraints).
+// Errors start with `what`.
+PoseKeyframe keyframe_from_pose(const ModelPackage& package, int64_t frame, const Pose& pose, bool include_root,
+                                const char* what);
+JointTarget joint_target_from_spec(const ModelPackage& package, int64_t frame, const JointTargetSpec& spec,
+                                   const char* what);
 
 enum class WindowOutcome { published, late, cancelled, failed };
 const char* window_outcome_name(WindowOutcome outcome);
@@ -239,6 +254,9 @@ class Planner {
   void set_prompt_at(double time, const std::string& text); // from `time` on (a past time means now)
   void clear_prompt();                                      // no prompt from now on
   void clear_prompt_at(double time);
+  // The prompt from `time` on is `text` (nullopt: none), and every prompt
+  // queued after `time` is forgotten (a timeline replaced by another).
+  void reset_prompts_at(double time, std::optional<std::string> text);
 
   ConstraintId add_waypoint(double time, double x, double z, std::optional<double> heading = std::nullopt);
   // Dense path at `speed` m/s along (x, z) points from start_time; smooth:
@@ -295,6 +313,7 @@ class Planner {
     int64_t frame = 0;
     bool now = false;
     std::optional<std::string> text;
+    bool drop_later = false;  // forget the events after `frame` first
   };
   struct AddConstraintCommand {
     ConstraintId id = 0;

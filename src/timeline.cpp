@@ -305,6 +305,51 @@ Timeline parse_timeline(const json& document, const ModelPackage& package, const
   return out;
 }
 
+json timeline_to_json(const Timeline& timeline, const ModelPackage& package) {
+  json prompts = json::array();
+  for (const PromptEvent& event : timeline.prompts) {
+    prompts.push_back({{"frame", event.frame}, {"text", event.text ? json(*event.text) : json()}});
+  }
+  const auto pair = [](const glm::dvec2& v) { return json::array({v.x, v.y}); };
+  json constraints = json::array();
+  for (const Constraint& constraint : timeline.constraints) {
+    json entry;
+    if (const auto* waypoint = std::get_if<RootWaypoint>(&constraint)) {
+      entry = {{"type", "waypoint"}, {"frame", waypoint->frame}, {"x", waypoint->x}, {"z", waypoint->z}};
+      if (waypoint->heading) entry["heading"] = *waypoint->heading;
+    } else if (const auto* path = std::get_if<RootPath>(&constraint)) {
+      json positions = json::array();
+      for (const glm::dvec2& position : path->positions) positions.push_back(pair(position));
+      entry = {{"type", "path"}, {"start_frame", path->start_frame}, {"positions", std::move(positions)}};
+      if (!path->headings.empty()) entry["headings"] = path->headings;
+    } else if (const auto* keyframe = std::get_if<PoseKeyframe>(&constraint)) {
+      entry = {{"type", "keyframe"},
+               {"frame", keyframe->frame},
+               {"features", keyframe->features},
+               {"include_root", keyframe->include_root}};
+    } else if (const auto* target = std::get_if<JointTarget>(&constraint)) {
+      entry = {{"type", "joint"}, {"frame", target->frame}, {"joint", package.skeleton().name(target->joint)}};
+      if (target->position) entry["position"] = {target->position->x, target->position->y, target->position->z};
+      if (target->rotation) {
+        const glm::dmat3& m = *target->rotation;
+        json rows = json::array();
+        for (int r = 0; r < 3; ++r) rows.push_back({m[0][r], m[1][r], m[2][r]});
+        entry["rotation"] = std::move(rows);
+      }
+    } else if (const auto* contact = std::get_if<FootContact>(&constraint)) {
+      json feet = json::array();
+      for (size_t foot : contact->feet) feet.push_back(package.contact_joints().at(foot));
+      entry = {{"type", "contact"},
+               {"start_frame", contact->start_frame},
+               {"end_frame", contact->end_frame},
+               {"value", contact->value}};
+      if (!feet.empty()) entry["feet"] = std::move(feet);
+    }
+    constraints.push_back(std::move(entry));
+  }
+  return {{"prompts", std::move(prompts)}, {"constraints", std::move(constraints)}};
+}
+
 Timeline parse_timeline_text(const std::string& json_text, const ModelPackage& package, const std::string& source) {
   json document;
   try {

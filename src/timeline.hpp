@@ -49,6 +49,11 @@ struct Timeline {
 Timeline parse_timeline(const nlohmann::json& document, const ModelPackage& package, const std::string& source);
 Timeline parse_timeline_text(const std::string& json_text, const ModelPackage& package, const std::string& source);
 
+// The timeline as a JSON document parse_timeline reads back to the same
+// timeline (frame-level forms: "frame", "start_frame", dense path
+// "positions"; joints and feet by name; numbers at full double precision).
+nlohmann::json timeline_to_json(const Timeline& timeline, const ModelPackage& package);
+
 // Seconds -> model frame: round(seconds * fps), ties to even. Error for a
 // non-finite or out-of-range time.
 int64_t seconds_to_frame(double seconds, double fps);

@@ -40,6 +40,7 @@ Wrapped *make_engine_wrapper(GDExtensionObjectPtr owner) {
 		{ &FileAccess::get_class_tag, &make_wrapper<FileAccess> },
 		{ &Curve3D::get_class_tag, &make_wrapper<Curve3D> },
 		{ &BoneMap::get_class_tag, &make_wrapper<BoneMap> },
+		{ &Animation::get_class_tag, &make_wrapper<Animation> },
 		{ &Resource::get_class_tag, &make_wrapper<Resource> },
 		{ &RefCounted::get_class_tag, &make_wrapper<RefCounted> },
 		{ &Engine::get_class_tag, &make_wrapper<Engine> },
@@ -166,6 +167,10 @@ void Node::queue_free() {
 	call_engine<void>(ARDY_ENGINE_METHOD(Node, queue_free), _owner);
 }
 
+NodePath Node::get_path_to(const Node *node, bool use_unique_path) const {
+	return call_engine<NodePath>(ARDY_ENGINE_METHOD(Node, get_path_to), _owner, node, use_unique_path);
+}
+
 Node *Node::get_parent() const {
 	return call_engine<Node *>(ARDY_ENGINE_METHOD(Node, get_parent), _owner);
 }
@@ -288,6 +293,42 @@ uint64_t FileAccess::get_length() const {
 
 PackedByteArray FileAccess::get_buffer(int64_t length) const {
 	return call_engine<PackedByteArray>(ARDY_ENGINE_METHOD(FileAccess, get_buffer), _owner, length);
+}
+
+bool FileAccess::store_string(const String &text) {
+	return call_engine<bool>(ARDY_ENGINE_METHOD(FileAccess, store_string), _owner, text);
+}
+
+void Resource::emit_changed() {
+	call_engine<void>(ARDY_ENGINE_METHOD(Resource, emit_changed), _owner);
+}
+
+int32_t Animation::add_track(TrackType type, int32_t at_position) {
+	return static_cast<int32_t>(call_engine<int64_t>(ARDY_ENGINE_METHOD(Animation, add_track), _owner, static_cast<int64_t>(type), static_cast<int64_t>(at_position)));
+}
+
+void Animation::track_set_path(int32_t track, const NodePath &path) {
+	call_engine<void>(ARDY_ENGINE_METHOD(Animation, track_set_path), _owner, static_cast<int64_t>(track), path);
+}
+
+int32_t Animation::rotation_track_insert_key(int32_t track, double time, const Quaternion &rotation) {
+	return static_cast<int32_t>(call_engine<int64_t>(ARDY_ENGINE_METHOD(Animation, rotation_track_insert_key), _owner, static_cast<int64_t>(track), time, rotation));
+}
+
+int32_t Animation::position_track_insert_key(int32_t track, double time, const Vector3 &position) {
+	return static_cast<int32_t>(call_engine<int64_t>(ARDY_ENGINE_METHOD(Animation, position_track_insert_key), _owner, static_cast<int64_t>(track), time, position));
+}
+
+void Animation::set_length(double seconds) {
+	call_engine<void>(ARDY_ENGINE_METHOD(Animation, set_length), _owner, seconds);
+}
+
+void Animation::set_step(double seconds) {
+	call_engine<void>(ARDY_ENGINE_METHOD(Animation, set_step), _owner, seconds);
+}
+
+void Animation::set_loop_mode(LoopMode mode) {
+	call_engine<void>(ARDY_ENGINE_METHOD(Animation, set_loop_mode), _owner, static_cast<int64_t>(mode));
 }
 
 Error FileAccess::get_error() const {

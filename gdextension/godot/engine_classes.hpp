@@ -18,6 +18,31 @@ public:
 
 class Resource : public RefCounted {
 	GDENGINECLASS(Resource, RefCounted)
+
+public:
+	void emit_changed();
+};
+
+// Keyframed tracks (what bake_animation makes).
+class Animation : public Resource {
+	GDENGINECLASS(Animation, Resource)
+
+public:
+	enum TrackType {
+		TYPE_POSITION_3D = 1,
+		TYPE_ROTATION_3D = 2,
+	};
+	enum LoopMode {
+		LOOP_NONE = 0,
+		LOOP_LINEAR = 1,
+	};
+	int32_t add_track(TrackType type, int32_t at_position = -1);
+	void track_set_path(int32_t track, const NodePath &path);
+	int32_t rotation_track_insert_key(int32_t track, double time, const Quaternion &rotation);
+	int32_t position_track_insert_key(int32_t track, double time, const Vector3 &position);
+	void set_length(double seconds);
+	void set_step(double seconds);
+	void set_loop_mode(LoopMode mode);
 };
 
 class Node : public Object {
@@ -45,6 +70,7 @@ public:
 	void remove_child(Node *child);
 	Node *get_parent() const;
 	void queue_free();
+	NodePath get_path_to(const Node *node, bool use_unique_path = false) const;
 
 	// Virtual overrides: a class that declares one of these is registered for
 	// it (see Node::register_virtuals).
@@ -140,12 +166,14 @@ class FileAccess : public RefCounted {
 public:
 	enum ModeFlags {
 		READ = 1,
+		WRITE = 2,
 	};
 	static Ref<FileAccess> open(const String &path, ModeFlags mode);
 	static Error get_open_error();
 	uint64_t get_length() const;
 	PackedByteArray get_buffer(int64_t length) const;
 	Error get_error() const;
+	bool store_string(const String &text);
 };
 
 // The Engine singleton.

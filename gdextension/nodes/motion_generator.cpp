@@ -6,6 +6,7 @@
 #include "godot/error_macros.hpp"
 #include "godot/ref.hpp"
 
+#include "bvh.hpp"
 #include "features.hpp"
 #include "generation_cpu.hpp"
 #include "kinematics.hpp"
@@ -13,6 +14,9 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <thread>
+
+#include <nlohmann/json.hpp>
 
 using namespace godot;
 
@@ -381,7 +385,7 @@ void MotionGenerator::clear_prompts() {
 	prompt_ = String();
 	queued_prompts_.clear();
 	if (planner_) {
-		planner_->clear_prompt();
+		planner_->reset_prompts_at(planner_->time(), std::nullopt);
 	}
 }
 
@@ -860,6 +864,654 @@ void MotionGenerator::reset(const Variant &pose) {
 	}
 }
 
+// --- timeline --------------------------------------------------------------------
+
+namespace {
+
+// Where the root is planned to be at any frame, from the timeline's root
+// goals (waypoints and paths) and where it starts: positions linear between
+// goals, headings from a goal's own or the direction of travel. Joint targets
+// (relative to the root then) and keyframes (facing the way the character
+// faces then) are placed with it, before any motion exists.
+class RootPlan {
+public:
+	RootPlan(int64_t start_frame, const glm::dvec2 &start, double start_heading, const std::vector<Constraint> &constraints) :
+			start_heading_(start_heading) {
+		samples_.push_back({ start_frame, start, start_heading });
+		for (const Constraint &constraint : constraints) {
+			if (const auto *waypoint = std::get_if<RootWaypoint>(&constraint)) {
+				samples_.push_back({ waypoint->frame, { waypoint->x, waypoint->z }, waypoint->heading });
+			} else if (const auto *path = std::get_if<RootPath>(&constraint)) {
+				for (size_t i = 0; i < path->positions.size(); ++i) {
+					std::optional<double> heading;
+					if (!path->headings.empty()) {
+						heading = path->headings[i];
+					}
+					samples_.push_back({ path->start_frame + static_cast<int64_t>(i), path->positions[i], heading });
+				}
+			}
+		}
+		std::stable_sort(samples_.begin(), samples_.end(), [](const Sample &a, const Sample &b) { return a.frame < b.frame; });
+	}
+
+	glm::dvec2 position(int64_t frame) const {
+		const auto [before, after] = bracket(frame);
+		if (before == after || after->frame == before->frame) {
+			return before->position;
+		}
+		const double blend = double(frame - before->frame) / double(after->frame - before->frame);
+		return before->position + blend * (after->position - before->position);
+	}
+
+	double heading(int64_t frame) const {
+		const auto [before, after] = bracket(frame);
+		if (before->frame == frame && before->heading) {
+			return *before->heading;
+		}
+		if (after->frame == frame && after->heading) {
+			return *after->heading;
+		}
+		const glm::dvec2 travel = after->position - before->position;
+		if (glm::length(travel) > 0.05) {
+			return std::atan2(travel.x, travel.y);
+		}
+		return before->heading.value_or(start_heading_);
+	}
+
+private:
+	struct Sample {
+		int64_t frame = 0;
+		glm::dvec2 position{ 0.0 };
+		std::optional<double> heading;
+	};
+	using Iterator = std::vector<Sample>::const_iterator;
+
+	// The last sample at or before `frame` and the first after it (both the
+	// last one past the end; both the first one before the start).
+	std::pair<Iterator, Iterator> bracket(int64_t frame) const {
+		const auto after = std::upper_bound(samples_.begin(), samples_.end(), frame, [](int64_t f, const Sample &s) { return f < s.frame; });
+		if (after == samples_.begin()) {
+			return { after, after };
+		}
+		if (after == samples_.end()) {
+			return { std::prev(after), std::prev(after) };
+		}
+		return { std::prev(after), after };
+	}
+
+	double start_heading_ = 0.0;
+	std::vector<Sample> samples_;
+};
+
+template <class Item>
+Item *timeline_item(const Array &items, int64_t index, const char *track) {
+	auto *item = object_from_owner<Item>(items[index].object_ptr());
+	if (item == nullptr) {
+		throw Error(std::string("timeline ") + track + "[" + std::to_string(index) + "] is not a " + Item::get_class_static());
+	}
+	return item;
+}
+
+void check_item_time(double seconds, const std::string &where) {
+	if (!std::isfinite(seconds) || seconds < 0.0 || seconds > 3600.0) {
+		throw Error(where + ": time " + std::to_string(seconds) + " s is outside 0..3600");
+	}
+}
+
+} // namespace
+
+void MotionGenerator::set_timeline(const Ref<MotionTimeline> &timeline) {
+	if (planner_) {
+		for (const Planner::ConstraintId id : timeline_ids_) {
+			planner_->remove_constraint(id);
+		}
+	}
+	timeline_ids_.clear();
+	timeline_ = timeline;
+	timeline_cycles_ = 0;
+	timeline_finished_ = false;
+	clip_.reset();
+	showing_clip_ = false;
+	if (planner_) {
+		// From now on: the prompts queued by the timeline before are forgotten.
+		const double now = get_time();
+		planner_->reset_prompts_at(now, prompt_.is_empty() ? std::nullopt : std::optional<std::string>(text(prompt_)));
+		timeline_start_ = now;
+		if (timeline_.is_valid()) {
+			start_timeline_cycle(now);
+		}
+	} else {
+		timeline_start_ = 0.0;
+	}
+}
+
+Ref<MotionTimeline> MotionGenerator::get_timeline() const {
+	return timeline_;
+}
+
+Timeline MotionGenerator::build_timeline(const Anchor &anchor, double offset, const RootStart &start) const {
+	Timeline out;
+	if (!package_ || !retargeter_) {
+		throw Error("the timeline needs the model and the skeleton to be ready (wait for model_loaded)");
+	}
+	const double fps = package_->fps();
+	const auto frame_of = [&](double seconds) { return seconds_to_frame(offset + seconds, fps); };
+	if (!prompt_.is_empty()) {
+		out.prompts.push_back({ frame_of(0.0), text(prompt_) });
+	}
+	if (timeline_.is_null()) {
+		return out;
+	}
+	const MotionTimeline &timeline = *timeline_.ptr();
+	const Array prompts = timeline.get_prompts();
+	for (int64_t i = 0; i < prompts.size(); ++i) {
+		const std::string where = "timeline prompts[" + std::to_string(i) + "]";
+		const MotionPrompt *prompt = timeline_item<MotionPrompt>(prompts, i, "prompts");
+		check_item_time(prompt->get_time(), where);
+		PromptEvent event{ frame_of(prompt->get_time()), std::nullopt };
+		if (!prompt->get_text().is_empty()) {
+			event.text = text(prompt->get_text());
+			try {
+				package_->text_encoder().normalize_prompt(*event.text);
+			} catch (const std::exception &failure) {
+				throw Error(where + ": " + failure.what());
+			}
+		}
+		out.prompts.push_back(std::move(event));
+	}
+	// Root goals first: the plan of where the root is comes from them.
+	const Array waypoints = timeline.get_waypoints();
+	for (int64_t i = 0; i < waypoints.size(); ++i) {
+		const std::string where = "timeline waypoints[" + std::to_string(i) + "]";
+		const MotionWaypoint *waypoint = timeline_item<MotionWaypoint>(waypoints, i, "waypoints");
+		check_item_time(waypoint->get_time(), where);
+		if (!finite(waypoint->get_position()) || !std::isfinite(waypoint->get_heading())) {
+			throw Error(where + ": the position or heading is not finite");
+		}
+		const glm::vec3 model = anchor.to_model(to_glm(waypoint->get_position()));
+		RootWaypoint goal{ frame_of(waypoint->get_time()), model.x, model.z, std::nullopt };
+		if (waypoint->get_use_heading()) {
+			goal.heading = waypoint->get_heading() - anchor.yaw_angle;
+		}
+		out.constraints.push_back(goal);
+	}
+	const Array paths = timeline.get_paths();
+	for (int64_t i = 0; i < paths.size(); ++i) {
+		const std::string where = "timeline paths[" + std::to_string(i) + "]";
+		const MotionPath *path = timeline_item<MotionPath>(paths, i, "paths");
+		check_item_time(path->get_start_time(), where);
+		const PackedVector3Array points = path->get_points();
+		if (points.size() < 2) {
+			throw Error(where + ": the path has " + std::to_string(points.size()) + " points, at least 2 are needed");
+		}
+		if (!std::isfinite(path->get_speed()) || path->get_speed() <= 0.0 || path->get_speed() > 10.0) {
+			throw Error(where + ": speed " + std::to_string(path->get_speed()) + " is out of range (more than 0, at most 10 m/s)");
+		}
+		std::vector<glm::dvec2> model_points;
+		for (int64_t p = 0; p < points.size(); ++p) {
+			if (!finite(points[p])) {
+				throw Error(where + ": point " + std::to_string(p) + " is not a finite vector");
+			}
+			const glm::vec3 model = anchor.to_model(to_glm(points[p]));
+			model_points.emplace_back(model.x, model.z);
+		}
+		try {
+			out.constraints.push_back(path_from_polyline(model_points, path->get_speed() / anchor.scale, frame_of(path->get_start_time()), fps));
+		} catch (const std::exception &failure) {
+			throw Error(where + ": " + failure.what());
+		}
+	}
+	const RootPlan plan(start.frame, start.position, start.heading, out.constraints);
+	const Array keyframes = timeline.get_keyframes();
+	for (int64_t i = 0; i < keyframes.size(); ++i) {
+		const std::string where = "timeline keyframes[" + std::to_string(i) + "]";
+		const MotionKeyframe *keyframe = timeline_item<MotionKeyframe>(keyframes, i, "keyframes");
+		check_item_time(keyframe->get_time(), where);
+		const int64_t frame = frame_of(keyframe->get_time());
+		// The body takes the pose; where the character stands then stays its own.
+		const Pose model_pose = standing_pose(keyframe->get_pose(), where.c_str(), static_cast<float>(plan.heading(frame)));
+		out.constraints.push_back(keyframe_from_pose(*package_, frame, model_pose, false, where.c_str()));
+	}
+	const Array targets = timeline.get_joint_targets();
+	Skeleton3D *skeleton = find_skeleton();
+	for (int64_t i = 0; i < targets.size(); ++i) {
+		const std::string where = "timeline joint_targets[" + std::to_string(i) + "]";
+		const MotionJointTarget *target = timeline_item<MotionJointTarget>(targets, i, "joint_targets");
+		check_item_time(target->get_time(), where);
+		const std::optional<std::string> joint = model_joint_of(target->get_bone());
+		if (!joint) {
+			throw Error(where + ": unknown bone '" + text(target->get_bone()) + "' (a bone of the skeleton mapped to the model, or a model joint)");
+		}
+		const int64_t frame = frame_of(target->get_time());
+		JointTargetSpec spec;
+		spec.joint = *joint;
+		if (target->get_use_position()) {
+			if (!finite(target->get_position())) {
+				throw Error(where + ": position is not a finite vector");
+			}
+			spec.position = glm::dvec3(anchor.to_model(to_glm(target->get_position())));
+			spec.root_xz = plan.position(frame);
+		}
+		if (target->get_use_rotation()) {
+			const glm::quat world = to_glm(target->get_rotation());
+			const float norm = glm::length(world);
+			if (!std::isfinite(norm) || norm < 1e-6f) {
+				throw Error(where + ": rotation is not a finite non-zero rotation");
+			}
+			const int rig_bone = retargeter_->bone_of_joint()[*package_->skeleton().find(*joint)];
+			if (rig_bone < 0) {
+				throw Error(where + ": joint '" + *joint + "' has no bone in the rig to take a rotation from");
+			}
+			const glm::quat skeleton_rotation = skeleton != nullptr ? to_frame(skeleton->get_global_transform()).rotation() : glm::quat(1, 0, 0, 0);
+			const glm::quat rig_global = glm::inverse(skeleton_rotation) * glm::normalize(world);
+			spec.rotation = glm::dquat(retargeter_->model_global_rotation(static_cast<size_t>(rig_bone), rig_global, frame_rotation(skeleton_rotation, anchor)));
+		}
+		if (!spec.position && !spec.rotation) {
+			throw Error(where + ": use_position and use_rotation are both off");
+		}
+		out.constraints.push_back(joint_target_from_spec(*package_, frame, spec, where.c_str()));
+	}
+	const Array contacts = timeline.get_contacts();
+	const std::vector<std::string> &contact_joints = package_->contact_joints();
+	for (int64_t i = 0; i < contacts.size(); ++i) {
+		const std::string where = "timeline contacts[" + std::to_string(i) + "]";
+		const MotionContact *contact = timeline_item<MotionContact>(contacts, i, "contacts");
+		check_item_time(contact->get_start_time(), where);
+		check_item_time(contact->get_end_time(), where);
+		FootContact goal;
+		goal.start_frame = frame_of(contact->get_start_time());
+		goal.end_frame = frame_of(contact->get_end_time());
+		if (goal.end_frame <= goal.start_frame) {
+			throw Error(where + ": end_time must be after start_time");
+		}
+		goal.value = contact->get_planted() ? 1.0 : 0.0;
+		if (contact->get_feet() != MotionContact::FEET_BOTH) {
+			const std::string side = contact->get_feet() == MotionContact::FEET_LEFT ? "_L" : "_R";
+			for (size_t foot = 0; foot < contact_joints.size(); ++foot) {
+				const std::string &name = contact_joints[foot];
+				if (name.size() >= 2 && name.compare(name.size() - 2, 2, side) == 0) {
+					goal.feet.push_back(foot);
+				}
+			}
+			if (goal.feet.empty()) {
+				throw Error(where + ": the model has no " + (side == "_L" ? "left" : "right") + " contact joint");
+			}
+		}
+		validate_constraint(goal, package_->layout(), where);
+		out.constraints.push_back(goal);
+	}
+	return out;
+}
+
+void MotionGenerator::start_timeline_cycle(double offset) {
+	RootStart start;
+	Pose now;
+	if (planner_->sample(offset, now)) {
+		start.frame = seconds_to_frame(offset, package_->fps());
+		start.position = glm::dvec2(now.root_position.x, now.root_position.z);
+		start.heading = now.heading;
+	}
+	try {
+		Timeline cycle = build_timeline(anchor_, offset, start);
+		for (PromptEvent &event : cycle.prompts) {
+			const double seconds = static_cast<double>(event.frame) / package_->fps();
+			if (event.text) {
+				planner_->set_prompt_at(seconds, *event.text);
+			} else {
+				planner_->clear_prompt_at(seconds);
+			}
+		}
+		for (Constraint &constraint : cycle.constraints) {
+			timeline_ids_.push_back(planner_->add_constraint(std::move(constraint)));
+		}
+	} catch (const std::exception &failure) {
+		fail(failure.what());
+	}
+	++timeline_cycles_;
+}
+
+void MotionGenerator::advance_timeline() {
+	if (timeline_.is_null() || !planner_) {
+		return;
+	}
+	const double length = timeline_->get_length();
+	if (!(length > 0.0)) {
+		return;
+	}
+	const double now = get_time();
+	if (timeline_->get_loop()) {
+		// The next cycle goes in when this one starts, so the planner sees it coming.
+		while (now >= timeline_start_ + static_cast<double>(timeline_cycles_ - 1) * length) {
+			start_timeline_cycle(timeline_start_ + static_cast<double>(timeline_cycles_) * length);
+		}
+	} else if (!timeline_finished_ && now >= timeline_start_ + length) {
+		timeline_finished_ = true;
+		emit_signal("timeline_finished");
+	}
+}
+
+// --- the clip ----------------------------------------------------------------------
+
+bool MotionGenerator::load_model_now(const char *what) {
+	if (!in_tree_) {
+		return fail(std::string(what) + ": the node is not in the scene tree");
+	}
+	const std::string path = text(model_path_);
+	if (!package_ || (model_ && model_->path() != path)) {
+		if (!pending_model_ || pending_model_->path() != path) {
+			if (path.empty()) {
+				return fail(std::string(what) + ": model_path is empty");
+			}
+			pending_model_ = acquire_model(path);
+		}
+		// Loading takes a second or two; this call was asked to finish the work.
+		const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+		while (!pending_model_->is_done() && std::chrono::steady_clock::now() < deadline) {
+			std::this_thread::sleep_for(std::chrono::milliseconds(5));
+		}
+		poll_model();
+		if (!package_) {
+			return fail(std::string(what) + ": the model '" + path + "' is not loaded" + (last_error_.empty() ? "" : " (" + last_error_ + ")"));
+		}
+	}
+	Skeleton3D *skeleton = find_skeleton();
+	if (skeleton == nullptr) {
+		return fail(std::string(what) + ": skeleton does not point to a Skeleton3D");
+	}
+	if (!build_rig(skeleton)) {
+		return fail(std::string(what) + ": the skeleton cannot be driven (" + last_error_ + ")");
+	}
+	return true;
+}
+
+bool MotionGenerator::generate_clip(double seconds) {
+	if (!std::isfinite(seconds) || seconds > 3600.0) {
+		return fail("generate_clip: seconds is " + std::to_string(seconds) + ", expected at most 3600 (or < 0 for the timeline's length)");
+	}
+	if (!load_model_now("generate_clip")) {
+		return false;
+	}
+	if (seconds <= 0.0) {
+		seconds = timeline_.is_valid() ? timeline_->get_length() : 10.0;
+	}
+	try {
+		Clip clip;
+		clip.anchor = make_anchor();
+		Timeline timeline = build_timeline(clip.anchor, 0.0, RootStart{});
+		PlannerConfig config = planner_config({});
+		config.generator = {};  // its own worker: the shared one serves live characters
+		config.prompt.reset();  // in the timeline's prompts
+		config.initial_prompts = std::move(timeline.prompts);
+		config.initial_constraints = std::move(timeline.constraints);
+		clip.motion = generate_offline(package_, std::move(config), seconds);
+		clip_ = std::move(clip);
+	} catch (const std::exception &failure) {
+		return fail(std::string("generate_clip: ") + failure.what());
+	}
+	return true;
+}
+
+bool MotionGenerator::has_clip() const {
+	return clip_.has_value();
+}
+
+double MotionGenerator::get_clip_length() const {
+	return clip_ ? clip_->motion.seconds() : 0.0;
+}
+
+void MotionGenerator::clear_clip() {
+	clip_.reset();
+	showing_clip_ = false;
+	has_rig_pose_ = false;
+}
+
+void MotionGenerator::rig_pose_at(const Clip &clip, double seconds, Skeleton3D *skeleton, Pose &pose, RigPose &rig_pose) const {
+	sample_offline(clip.motion, seconds, pose);
+	// As the live pose without a root motion target: the whole motion in the skeleton.
+	const Frame skeleton_frame = to_frame(skeleton->get_global_transform());
+	const glm::vec3 hips = skeleton_frame.apply_inverse(clip.anchor.to_world(pose.root_position));
+	retargeter_->apply(pose.local_rotations, frame_rotation(skeleton_frame.rotation(), clip.anchor), hips, rig_pose);
+}
+
+void MotionGenerator::seek_clip(double seconds) {
+	if (!clip_) {
+		fail("seek_clip: there is no clip (call generate_clip first)");
+		return;
+	}
+	if (!std::isfinite(seconds)) {
+		fail("seek_clip: seconds is not a finite number");
+		return;
+	}
+	Skeleton3D *skeleton = find_skeleton();
+	if (!build_rig(skeleton)) {
+		fail("seek_clip: skeleton does not point to a Skeleton3D that can be driven");
+		return;
+	}
+	if (!showing_clip_) {
+		stop_planner();
+		showing_clip_ = true;
+	}
+	rig_pose_at(*clip_, seconds, skeleton, pose_, rig_pose_);
+	has_pose_ = true;
+	has_rig_pose_ = true;
+	posed_skeleton_ = skeleton;
+	hips_world_ = clip_->anchor.to_world(pose_.root_position);
+	ensure_modifier(skeleton);
+}
+
+Variant MotionGenerator::get_clip_root(double seconds) const {
+	Pose pose;
+	if (!clip_ || !sample_offline(clip_->motion, seconds, pose)) {
+		return Variant();
+	}
+	Frame character;
+	character.basis = heading_rotation(clip_->anchor.yaw_angle + pose.heading);
+	character.origin = clip_->anchor.to_world(glm::vec3(pose.root_position.x, 0.0f, pose.root_position.z));
+	return to_godot(character);
+}
+
+Variant MotionGenerator::bake_animation(double seconds, double fps, Node *root_node) {
+	if (!std::isfinite(fps) || fps < 1.0 || fps > 240.0) {
+		fail("bake_animation: fps is " + std::to_string(fps) + ", expected 1..240");
+		return Variant();
+	}
+	if (!generate_clip(seconds)) {
+		return Variant();
+	}
+	Node *root = root_node != nullptr ? root_node : get_parent();
+	Skeleton3D *skeleton = find_skeleton();
+	if (root == nullptr) {
+		fail("bake_animation: no root_node given and the generator has no parent to make track paths from");
+		return Variant();
+	}
+	const std::string skeleton_path = text(String(root->get_path_to(skeleton)));
+	if (skeleton_path.empty() || skeleton_path.front() == '/') {
+		fail("bake_animation: the skeleton is not in the same scene tree as root_node");
+		return Variant();
+	}
+	Animation *animation = memnew_object<Animation>();
+	const Variant result(animation);  // holds the reference
+	const double length = clip_->motion.seconds() - 1.0 / clip_->motion.fps;
+	const auto keys = static_cast<int64_t>(std::floor(length * fps + 1e-6)) + 1;
+	Pose pose;
+	RigPose rig_pose;
+	rig_pose_at(*clip_, 0.0, skeleton, pose, rig_pose);
+	const int root_bone = retargeter_->root_bone();
+	const auto track_path = [&](int bone) { return NodePath(String(skeleton_path + ":" + text(skeleton->get_bone_name(bone)))); };
+	std::vector<std::pair<int, int32_t>> rotation_tracks;  // bone, track
+	for (size_t bone = 0; bone < rig_pose.written.size(); ++bone) {
+		if (rig_pose.written[bone]) {
+			const int32_t track = animation->add_track(Animation::TYPE_ROTATION_3D);
+			animation->track_set_path(track, track_path(static_cast<int>(bone)));
+			rotation_tracks.emplace_back(static_cast<int>(bone), track);
+		}
+	}
+	const int32_t position_track = animation->add_track(Animation::TYPE_POSITION_3D);
+	animation->track_set_path(position_track, track_path(root_bone));
+	for (int64_t key = 0; key < keys; ++key) {
+		const double time = std::min(static_cast<double>(key) / fps, length);
+		rig_pose_at(*clip_, time, skeleton, pose, rig_pose);
+		for (const auto &[bone, track] : rotation_tracks) {
+			animation->rotation_track_insert_key(track, time, to_godot(rig_pose.local_rotations[static_cast<size_t>(bone)]));
+		}
+		animation->position_track_insert_key(position_track, time, to_godot(rig_pose.root_position));
+	}
+	animation->set_length(length);
+	animation->set_step(1.0 / fps);
+	animation->set_loop_mode(timeline_.is_valid() && timeline_->get_loop() ? Animation::LOOP_LINEAR : Animation::LOOP_NONE);
+	return result;
+}
+
+int64_t MotionGenerator::export_bvh(const String &path, double seconds) {
+	if (!generate_clip(seconds)) {
+		return godot::ERR_UNCONFIGURED;
+	}
+	Ref<FileAccess> file = FileAccess::open(path, FileAccess::WRITE);
+	if (file.is_null()) {
+		const godot::Error error = FileAccess::get_open_error();
+		fail("export_bvh: cannot open '" + text(path) + "' for writing: " + text(error_string(error)));
+		return error;
+	}
+	file->store_string(String(motion_to_bvh(package_->skeleton(), clip_->motion.fps, clip_->motion.frames)));
+	if (file->get_error() != godot::OK) {
+		fail("export_bvh: cannot write '" + text(path) + "': " + text(error_string(file->get_error())));
+		return file->get_error();
+	}
+	return godot::OK;
+}
+
+String MotionGenerator::timeline_to_json() {
+	if (!load_model_now("timeline_to_json")) {
+		return String();
+	}
+	try {
+		const Timeline timeline = build_timeline(make_anchor(), 0.0, RootStart{});
+		return String(ardy::timeline_to_json(timeline, *package_).dump(1));
+	} catch (const std::exception &failure) {
+		fail(std::string("timeline_to_json: ") + failure.what());
+		return String();
+	}
+}
+
+Variant MotionGenerator::timeline_from_json(const String &json) {
+	if (!load_model_now("timeline_from_json")) {
+		return Variant();
+	}
+	try {
+		const Timeline parsed = parse_timeline_text(text(json), *package_, "timeline_from_json");
+		const Anchor anchor = make_anchor();
+		const double fps = package_->fps();
+		const auto seconds_of = [&](int64_t frame) { return static_cast<double>(frame) / fps; };
+		const auto world_of = [&](double x, double z) { return to_godot(anchor.to_world(glm::vec3(float(x), 0.0f, float(z)))); };
+		MotionTimeline *timeline = memnew_object<MotionTimeline>();
+		const Variant result(timeline);  // holds the reference
+		Array prompts, waypoints, paths, keyframes, targets, contacts;
+		int64_t last_frame = 0;
+		for (const PromptEvent &event : parsed.prompts) {
+			MotionPrompt *prompt = memnew_object<MotionPrompt>();
+			prompts.push_back(Variant(prompt));
+			prompt->set_time(seconds_of(event.frame));
+			prompt->set_text(String(event.text.value_or("")));
+			last_frame = std::max(last_frame, event.frame);
+		}
+		const RootPlan plan(0, glm::dvec2(0.0), 0.0, parsed.constraints);
+		Skeleton3D *skeleton = find_skeleton();
+		const glm::quat frame = frame_rotation(to_frame(skeleton->get_global_transform()).rotation(), anchor);
+		for (size_t index = 0; index < parsed.constraints.size(); ++index) {
+			const Constraint &constraint = parsed.constraints[index];
+			const std::string where = "timeline_from_json: constraints[" + std::to_string(index) + "]";
+			last_frame = std::max(last_frame, constraint_frames(constraint).second);
+			if (const auto *goal = std::get_if<RootWaypoint>(&constraint)) {
+				MotionWaypoint *waypoint = memnew_object<MotionWaypoint>();
+				waypoints.push_back(Variant(waypoint));
+				waypoint->set_time(seconds_of(goal->frame));
+				waypoint->set_position(world_of(goal->x, goal->z));
+				waypoint->set_use_heading(goal->heading.has_value());
+				waypoint->set_heading(goal->heading ? *goal->heading + anchor.yaw_angle : 0.0);
+			} else if (const auto *goal = std::get_if<RootPath>(&constraint)) {
+				// A polyline through every frame's position, walked at the path's mean speed.
+				PackedVector3Array points;
+				double length = 0.0;
+				for (size_t p = 0; p < goal->positions.size(); ++p) {
+					points.push_back(world_of(goal->positions[p].x, goal->positions[p].y));
+					if (p > 0) {
+						length += glm::length(goal->positions[p] - goal->positions[p - 1]);
+					}
+				}
+				const double duration = seconds_of(static_cast<int64_t>(goal->positions.size()) - 1);
+				if (goal->positions.size() < 2 || !(length > 1e-6)) {
+					throw Error(where + ": a path that does not move has no MotionPath form (use a waypoint)");
+				}
+				MotionPath *path = memnew_object<MotionPath>();
+				paths.push_back(Variant(path));
+				path->set_start_time(seconds_of(goal->start_frame));
+				path->set_points(points);
+				path->set_speed(length * anchor.scale / duration);
+			} else if (const auto *goal = std::get_if<ardy::PoseKeyframe>(&constraint)) {
+				std::vector<float> features(goal->features.begin(), goal->features.end());
+				const MotionFrame pose = unpack_frame(package_->layout(), features.data());
+				std::vector<glm::quat> model_local(pose.rotations.size());
+				const Skeleton &model = package_->skeleton();
+				for (size_t joint = 0; joint < model_local.size(); ++joint) {
+					const int parent = model.parent(joint);
+					const glm::mat3 local = parent < 0 ? pose.rotations[joint] : glm::transpose(pose.rotations[static_cast<size_t>(parent)]) * pose.rotations[joint];
+					model_local[joint] = quat_from_matrix(local);
+				}
+				RigPose rig_pose;
+				retargeter_->apply(model_local, frame, glm::vec3(0.0f), rig_pose);
+				Dictionary bones;
+				for (size_t bone = 0; bone < rig_pose.written.size(); ++bone) {
+					if (rig_pose.written[bone]) {
+						bones.set(skeleton->get_bone_name(static_cast<int32_t>(bone)), to_godot(rig_pose.local_rotations[bone]));
+					}
+				}
+				MotionKeyframe *keyframe = memnew_object<MotionKeyframe>();
+				keyframes.push_back(Variant(keyframe));
+				keyframe->set_time(seconds_of(goal->frame));
+				keyframe->set_pose(bones);
+			} else if (const auto *goal = std::get_if<JointTarget>(&constraint)) {
+				if (goal->rotation) {
+					throw Error(where + ": joint rotation targets cannot be imported (only positions)");
+				}
+				glm::dvec3 position = *goal->position;
+				if (goal->joint != 0) {
+					const glm::dvec2 root = plan.position(goal->frame);
+					position += glm::dvec3(root.x, 0.0, root.y);
+				}
+				MotionJointTarget *target = memnew_object<MotionJointTarget>();
+				targets.push_back(Variant(target));
+				target->set_time(seconds_of(goal->frame));
+				target->set_bone(String(package_->skeleton().name(goal->joint)));
+				target->set_use_position(true);
+				target->set_position(to_godot(anchor.to_world(glm::vec3(position))));
+			} else if (const auto *goal = std::get_if<FootContact>(&constraint)) {
+				bool left = goal->feet.empty(), right = goal->feet.empty();
+				for (size_t foot : goal->feet) {
+					const std::string &name = package_->contact_joints()[foot];
+					(name.size() >= 2 && name.compare(name.size() - 2, 2, "_L") == 0 ? left : right) = true;
+				}
+				MotionContact *contact = memnew_object<MotionContact>();
+				contacts.push_back(Variant(contact));
+				contact->set_start_time(seconds_of(goal->start_frame));
+				contact->set_end_time(seconds_of(goal->end_frame));
+				contact->set_feet(left && right ? MotionContact::FEET_BOTH : (left ? MotionContact::FEET_LEFT : MotionContact::FEET_RIGHT));
+				contact->set_planted(goal->value >= 0.5);
+			}
+		}
+		timeline->set_prompts(prompts);
+		timeline->set_waypoints(waypoints);
+		timeline->set_paths(paths);
+		timeline->set_keyframes(keyframes);
+		timeline->set_joint_targets(targets);
+		timeline->set_contacts(contacts);
+		timeline->set_length(std::max(1.0, seconds_of(last_frame + 1)));
+		return result;
+	} catch (const std::exception &failure) {
+		fail(std::string(failure.what()).rfind("timeline_from_json", 0) == 0 ? failure.what() : std::string("timeline_from_json: ") + failure.what());
+		return Variant();
+	}
+}
+
 // --- reports -------------------------------------------------------------------
 
 double MotionGenerator::get_time() const {
@@ -1036,8 +1688,36 @@ bool MotionGenerator::start_planner(const std::vector<float> &initial_history) {
 		return false;
 	}
 	place_anchor();
+	PlannerConfig config = planner_config(initial_history);
+	timeline_ids_.clear();
+	timeline_start_ = 0.0;
+	timeline_cycles_ = 0;
+	timeline_finished_ = false;
+	if (timeline_.is_valid()) {
+		// In the config, so the first window already follows the timeline.
+		try {
+			const double length = timeline_->get_length();
+			const int64_t cycles = timeline_->get_loop() && length > 0.0 ? 2 : 1;
+			for (int64_t cycle = 0; cycle < cycles; ++cycle) {
+				Timeline part = build_timeline(anchor_, static_cast<double>(cycle) * length, RootStart{});
+				for (PromptEvent &event : part.prompts) {
+					config.initial_prompts.push_back(std::move(event));
+				}
+				for (Constraint &constraint : part.constraints) {
+					config.initial_constraints.push_back(std::move(constraint));
+					timeline_ids_.push_back(config.initial_constraints.size());  // ids 1..n (PlannerConfig)
+				}
+			}
+			timeline_cycles_ = cycles;
+		} catch (const std::exception &failure) {
+			fail(failure.what());
+			config.initial_prompts.clear();
+			config.initial_constraints.clear();
+			timeline_ids_.clear();
+		}
+	}
 	try {
-		planner_ = std::make_unique<Planner>(package_, planner_config(initial_history));
+		planner_ = std::make_unique<Planner>(package_, std::move(config));
 	} catch (const std::exception &failure) {
 		planner_.reset();
 		return fail(std::string("cannot start generating: ") + failure.what());
@@ -1200,20 +1880,25 @@ void MotionGenerator::remove_modifier() {
 }
 
 void MotionGenerator::place_anchor() {
-	anchor_ = Anchor();
+	anchor_ = make_anchor();
+	anchor_placed_ = true;
+}
+
+MotionGenerator::Anchor MotionGenerator::make_anchor() const {
+	Anchor anchor;
 	if (Node3D *reference = reference_node()) {
 		const Frame frame = to_frame(reference->get_global_transform());
-		anchor_.yaw_angle = frame.yaw();
-		anchor_.yaw = heading_rotation(anchor_.yaw_angle);
-		anchor_.origin = frame.origin;
+		anchor.yaw_angle = frame.yaw();
+		anchor.yaw = heading_rotation(anchor.yaw_angle);
+		anchor.origin = frame.origin;
 	}
 	// Metres of the rig per metre of the model: the legs' ratio, in world units.
 	if (retargeter_ && retargeter_->model_leg_length() > 0.0f && retargeter_->rig_leg_length() > 0.0f) {
 		Skeleton3D *skeleton = find_skeleton();
 		const float skeleton_scale = skeleton != nullptr ? to_frame(skeleton->get_global_transform()).scale() : 1.0f;
-		anchor_.scale = retargeter_->rig_leg_length() * skeleton_scale / retargeter_->model_leg_length();
+		anchor.scale = retargeter_->rig_leg_length() * skeleton_scale / retargeter_->model_leg_length();
 	}
-	anchor_placed_ = true;
+	return anchor;
 }
 
 glm::quat MotionGenerator::frame_rotation(const Skeleton3D *skeleton) const {
@@ -1221,8 +1906,12 @@ glm::quat MotionGenerator::frame_rotation(const Skeleton3D *skeleton) const {
 }
 
 glm::quat MotionGenerator::frame_rotation(const glm::quat &skeleton_rotation) const {
+	return frame_rotation(skeleton_rotation, anchor_);
+}
+
+glm::quat MotionGenerator::frame_rotation(const glm::quat &skeleton_rotation, const Anchor &anchor) {
 	// Model world -> skeleton space: the anchor's yaw, then the skeleton's world rotation undone.
-	return glm::normalize(glm::inverse(skeleton_rotation) * glm::quat_cast(anchor_.yaw));
+	return glm::normalize(glm::inverse(skeleton_rotation) * glm::quat_cast(anchor.yaw));
 }
 
 // --- every frame ---------------------------------------------------------------------
@@ -1234,6 +1923,9 @@ void MotionGenerator::_process(double delta) {
 	current_frame_microseconds_ = 0.0;
 	MainThreadTimer timer(current_frame_microseconds_);
 	poll_model();
+	if (showing_clip_) {
+		return;  // seek_clip poses the rig
+	}
 	if (!planner_) {
 		if (package_ && is_active() && (playing_ || in_editor_)) {
 			start_planner({});
@@ -1254,6 +1946,7 @@ void MotionGenerator::_process(double delta) {
 		planner_->advance(std::max(0.0, delta));
 	}
 	report_planner();
+	advance_timeline();
 	has_pose_ = planner_->sample_current(pose_);
 	if (!has_pose_) {
 		return;
@@ -1500,6 +2193,19 @@ void MotionGenerator::_bind_methods() {
 	ClassDB::bind_method(D_METHOD("is_model_loaded"), &MotionGenerator::is_model_loaded);
 	ClassDB::bind_method(D_METHOD("is_generating"), &MotionGenerator::is_generating);
 	ClassDB::bind_method(D_METHOD("get_last_error"), &MotionGenerator::get_last_error);
+	ClassDB::bind_method(D_METHOD("set_timeline", "timeline"), &MotionGenerator::set_timeline);
+	ClassDB::bind_method(D_METHOD("get_timeline"), &MotionGenerator::get_timeline);
+	ClassDB::bind_method(D_METHOD("generate_clip", "seconds"), &MotionGenerator::generate_clip, DEFVAL(-1.0));
+	ClassDB::bind_method(D_METHOD("has_clip"), &MotionGenerator::has_clip);
+	ClassDB::bind_method(D_METHOD("get_clip_length"), &MotionGenerator::get_clip_length);
+	ClassDB::bind_method(D_METHOD("clear_clip"), &MotionGenerator::clear_clip);
+	ClassDB::bind_method(D_METHOD("seek_clip", "seconds"), &MotionGenerator::seek_clip);
+	ClassDB::bind_method(D_METHOD("get_clip_root", "seconds"), &MotionGenerator::get_clip_root);
+	ClassDB::bind_method(D_METHOD("bake_animation", "seconds", "fps", "root_node"), &MotionGenerator::bake_animation, DEFVAL(-1.0), DEFVAL(30.0),
+			DEFVAL(Variant()));
+	ClassDB::bind_method(D_METHOD("export_bvh", "path", "seconds"), &MotionGenerator::export_bvh, DEFVAL(-1.0));
+	ClassDB::bind_method(D_METHOD("timeline_to_json"), &MotionGenerator::timeline_to_json);
+	ClassDB::bind_method(D_METHOD("timeline_from_json", "json"), &MotionGenerator::timeline_from_json);
 
 	ADD_GROUP("Model", "");
 	ADD_PROPERTY(PropertyInfo(Variant::STRING, "model_path", PROPERTY_HINT_DIR), "set_model_path", "get_model_path");
@@ -1515,6 +2221,8 @@ void MotionGenerator::_bind_methods() {
 	ADD_PROPERTY(PropertyInfo(Variant::VECTOR3, "target_velocity", PROPERTY_HINT_NONE, "suffix:m/s"), "set_target_velocity", "get_target_velocity");
 	ADD_PROPERTY(PropertyInfo(Variant::BOOL, "foot_lock"), "set_foot_lock", "get_foot_lock");
 	ADD_GROUP("Goals", "");
+	ADD_PROPERTY(PropertyInfo(Variant::OBJECT, "timeline", PROPERTY_HINT_RESOURCE_TYPE, "MotionTimeline", PROPERTY_USAGE_DEFAULT, "MotionTimeline"), "set_timeline",
+			"get_timeline");
 	ADD_PROPERTY(PropertyInfo(Variant::ARRAY, "waypoints", PROPERTY_HINT_TYPE_STRING, "24/17:MotionWaypoint"), "set_waypoints", "get_waypoints");
 	ADD_PROPERTY(PropertyInfo(Variant::ARRAY, "keyframes", PROPERTY_HINT_TYPE_STRING, "24/17:MotionKeyframe"), "set_keyframes", "get_keyframes");
 	ADD_GROUP("Sampling", "");
@@ -1540,6 +2248,7 @@ void MotionGenerator::_bind_methods() {
 	ADD_SIGNAL(MethodInfo("keyframe_reached", PropertyInfo(Variant::INT, "index")));
 	ADD_SIGNAL(MethodInfo("generation_failed", PropertyInfo(Variant::STRING, "message")));
 	ADD_SIGNAL(MethodInfo("model_loaded"));
+	ADD_SIGNAL(MethodInfo("timeline_finished"));
 }
 
 } // namespace ardy

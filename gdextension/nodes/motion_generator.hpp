@@ -16,8 +16,11 @@
 
 #include "convert.hpp"
 #include "model_cache.hpp"
+#include "motion_timeline.hpp"
+#include "offline_motion.hpp"
 #include "planner.hpp"
 #include "retarget.hpp"
+#include "timeline.hpp"
 
 #include <array>
 #include <chrono>
@@ -79,6 +82,8 @@ public:
 	double get_waypoint_reach_distance() const;
 	void set_preview_in_editor(bool preview);
 	bool get_preview_in_editor() const;
+	void set_timeline(const godot::Ref<MotionTimeline> &timeline);
+	godot::Ref<MotionTimeline> get_timeline() const;
 
 	void set_waypoints(const godot::Array &waypoints);
 	godot::Array get_waypoints() const;
@@ -102,6 +107,18 @@ public:
 	bool is_model_loaded() const;
 	bool is_generating() const;
 	godot::String get_last_error() const;
+
+	// --- the clip: the timeline generated ahead of time (offline_motion.hpp) ---
+	bool generate_clip(double seconds);
+	bool has_clip() const;
+	double get_clip_length() const;
+	void clear_clip();
+	void seek_clip(double seconds);
+	godot::Variant get_clip_root(double seconds) const;
+	godot::Variant bake_animation(double seconds, double fps, godot::Node *root_node);
+	int64_t export_bvh(const godot::String &path, double seconds);
+	godot::String timeline_to_json();
+	godot::Variant timeline_from_json(const godot::String &json);
 
 	// Called by the pose modifier in the skeleton's update.
 	void write_pose(godot::Skeleton3D *skeleton);
@@ -158,6 +175,17 @@ private:
 		uint64_t id = 0;
 		std::string prompt;
 	};
+	// Where the character is in model space when a timeline starts: the
+	// root's ground position and heading at that frame.
+	struct RootStart {
+		int64_t frame = 0;
+		glm::dvec2 position{ 0.0 };
+		double heading = 0.0;
+	};
+	struct Clip {
+		OfflineMotion motion;
+		Anchor anchor;  // model space -> world when it was made
+	};
 
 	bool is_active() const;  // generates now (in game, or previewing in the editor)
 	void request_model();
@@ -171,6 +199,14 @@ private:
 	godot::Node3D *find_root_motion_target() const;
 	godot::Node3D *reference_node() const;
 	void place_anchor();
+	Anchor make_anchor() const;
+	// The timeline (and the prompt property from `offset`) as model-space
+	// prompts and constraints, its times shifted by `offset` seconds. Error names the item.
+	Timeline build_timeline(const Anchor &anchor, double offset, const RootStart &start) const;
+	void start_timeline_cycle(double offset);  // sends one cycle to the running planner
+	void advance_timeline();                   // loops and reports the end, every frame
+	bool load_model_now(const char *what);     // waits for the model and builds the rig
+	void rig_pose_at(const Clip &clip, double seconds, godot::Skeleton3D *skeleton, Pose &pose, RigPose &rig_pose) const;
 	PlannerConfig planner_config(const std::vector<float> &initial_history) const;
 	bool apply_sampling(const char *what);  // false (reported) when the planner refuses them
 	void submit_world_goals();
@@ -191,6 +227,7 @@ private:
 	Pose standing_pose(const godot::Variant &pose, const char *what, std::optional<float> heading) const;
 	glm::quat frame_rotation(const godot::Skeleton3D *skeleton) const;
 	glm::quat frame_rotation(const glm::quat &skeleton_rotation) const;
+	static glm::quat frame_rotation(const glm::quat &skeleton_rotation, const Anchor &anchor);
 	std::optional<std::string> model_joint_of(const godot::String &bone) const;
 	double check_time(double at_seconds, const char *what) const;
 	bool fail(const std::string &message);
@@ -256,6 +293,14 @@ private:
 	std::vector<QueuedPrompt> queued_prompts_;  // queued before the planner started
 	godot::Array waypoint_resources_;            // MotionWaypoint, as saved with the scene
 	godot::Array keyframe_resources_;            // MotionKeyframe
+
+	godot::Ref<MotionTimeline> timeline_;
+	double timeline_start_ = 0.0;  // motion-clock seconds the timeline's time 0 is at
+	int64_t timeline_cycles_ = 0;  // cycles sent to the planner
+	bool timeline_finished_ = false;
+	std::vector<Planner::ConstraintId> timeline_ids_;
+	std::optional<Clip> clip_;
+	bool showing_clip_ = false;  // the rig shows the clip (seek_clip); live generation waits
 
 	uint64_t windows_seen_ = 0;
 	uint64_t last_window_id_ = 0;

@@ -29,6 +29,8 @@ cp "$ROOT/README.md" "$PROJECT/fixtures/README.md"
 cp "$ROOT"/tests/data/tiny_package/{model.json,*.onnx,vocab.txt} "$PROJECT/fixtures/model/"
 
 godot() { timeout 300 "$GODOT" --headless "$@"; }
+# The CLI the timeline tests compare the node with.
+export ARDY_CLI=${ARDY_CLI:-$ROOT/build/template_debug/src/ardy-generate}
 
 # The engine loads an extension only once an import has listed it in
 # .godot/extension_list.cfg; a first import can miss it, so probe and retry.

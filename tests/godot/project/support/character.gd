@@ -72,5 +72,16 @@ func last_position(bone_name: String) -> Vector3:
 	return samples.back()["bones"][bone_name] if not samples.is_empty() else Vector3.INF
 
 
+## Bone positions relative to the hips, turned so the hips face +Z: the
+## body's shape wherever it stands and whichever way it faces.
+static func body_shape(bones: Dictionary, hips_basis: Basis) -> Dictionary:
+	var forward := hips_basis * Vector3(0, 0, 1)
+	var unturn := Basis(Vector3.UP, -atan2(forward.x, forward.z))
+	var shape := {}
+	for bone_name in bones:
+		shape[bone_name] = unturn * (bones[bone_name] - bones["Hips"])
+	return shape
+
+
 func dispose() -> void:
 	root.free()

@@ -194,15 +194,6 @@ func test_target_velocity_steers_turns_and_runs() -> void:
 
 
 ## Joint positions relative to the hips, turned into the hips' heading frame.
-func _body_shape(bones: Dictionary, hips_basis: Basis) -> Dictionary:
-	var forward := hips_basis * Vector3(0, 0, 1)
-	var unturn := Basis(Vector3.UP, -atan2(forward.x, forward.z))
-	var shape := {}
-	for bone_name in bones:
-		shape[bone_name] = unturn * (bones[bone_name] - bones["Hips"])
-	return shape
-
-
 func test_pose_keyframe_and_hand_target_are_matched() -> void:
 	var character := await _start("stand still")
 	var generator := character.generator
@@ -233,7 +224,7 @@ func test_pose_keyframe_and_hand_target_are_matched() -> void:
 	var wanted := {}
 	for bone in copy.get_bone_count():
 		wanted[copy.get_bone_name(bone)] = copy.get_bone_global_pose(bone).origin
-	var wanted_shape := _body_shape(wanted, Basis())
+	var wanted_shape := TestCharacter.body_shape(wanted, Basis())
 	copy.free()
 
 	check(await character.wait_until_time(tree, 3.05), "the clock passed 3 s")
@@ -241,7 +232,7 @@ func test_pose_keyframe_and_hand_target_are_matched() -> void:
 	for i in character.samples.size():
 		if character.samples[i]["time"] <= 3.0:
 			index = i
-	var shown := _body_shape(character.samples[index]["bones"], hips_bases[index])
+	var shown := TestCharacter.body_shape(character.samples[index]["bones"], hips_bases[index])
 	var total := 0.0
 	for bone_name in wanted_shape:
 		total += (shown[bone_name] - wanted_shape[bone_name]).length()

@@ -1,0 +1,329 @@
+extends TestCase
+## MotionTimeline: saved and loaded as a resource, played live by a
+## MotionGenerator, generated ahead of time as a clip, baked into an Animation
+## an AnimationPlayer replays, and converted to the JSON timeline that
+## ardy-generate (the CLI, named by $ARDY_CLI) turns into the same motion.
+
+const SEED := 7
+## Both upper arms raised 70 degrees, forearms bent up.
+const HANDS_UP := {
+	"UpperArm_L": Quaternion(Vector3(0, 0, 1), 1.2217305),
+	"UpperArm_R": Quaternion(Vector3(0, 0, 1), -1.2217305),
+	"LowerArm_L": Quaternion(Vector3(0, 0, 1), 0.34906585),
+	"LowerArm_R": Quaternion(Vector3(0, 0, 1), -0.34906585),
+}
+
+
+func _prompt(time: float, text: String) -> MotionPrompt:
+	var prompt := MotionPrompt.new()
+	prompt.time = time
+	prompt.text = text
+	return prompt
+
+
+func _waypoint(time: float, position: Vector3) -> MotionWaypoint:
+	var waypoint := MotionWaypoint.new()
+	waypoint.time = time
+	waypoint.position = position
+	return waypoint
+
+
+func _keyframe(time: float, pose: Dictionary) -> MotionKeyframe:
+	var keyframe := MotionKeyframe.new()
+	keyframe.time = time
+	keyframe.pose = pose
+	return keyframe
+
+
+## Walk 3 m to a waypoint at 3 s, then stand and raise both hands at 5.5 s.
+func _walk_then_hands_up() -> MotionTimeline:
+	var timeline := MotionTimeline.new()
+	timeline.length = 6.0
+	timeline.prompts = [_prompt(0.0, "walk forward"), _prompt(3.5, "stand still")]
+	timeline.waypoints = [_waypoint(3.0, Vector3(0.5, 0.0, 3.0))]
+	timeline.keyframes = [_keyframe(5.5, HANDS_UP)]
+	return timeline
+
+
+func _every_track() -> MotionTimeline:
+	var timeline := _walk_then_hands_up()
+	timeline.loop = true
+	var path := MotionPath.new()
+	path.start_time = 6.0
+	path.speed = 1.5
+	path.points = PackedVector3Array([Vector3(0, 0, 3), Vector3(2, 0, 4), Vector3(3, 0, 6)])
+	timeline.paths = [path]
+	var target := MotionJointTarget.new()
+	target.time = 8.0
+	target.bone = "Hand_R"
+	target.position = Vector3(0.3, 1.4, 5.0)
+	target.use_rotation = true
+	target.rotation = Quaternion(Vector3.UP, 0.5)
+	timeline.joint_targets = [target]
+	var contact := MotionContact.new()
+	contact.start_time = 1.0
+	contact.end_time = 1.5
+	contact.feet = 1
+	contact.planted = false
+	timeline.contacts = [contact]
+	var heading_waypoint := _waypoint(9.0, Vector3(3, 0, 6))
+	heading_waypoint.use_heading = true
+	heading_waypoint.heading = 1.0
+	timeline.waypoints = timeline.waypoints + [heading_waypoint]
+	return timeline
+
+
+## The property values of every item of every track, in order.
+func _describe(timeline: MotionTimeline) -> Array:
+	var tracks := [
+		timeline.prompts,
+		timeline.waypoints,
+		timeline.paths,
+		timeline.keyframes,
+		timeline.joint_targets,
+		timeline.contacts
+	]
+	var described: Array = [timeline.length, timeline.loop]
+	for track: Array in tracks:
+		for item: Resource in track:
+			var values := [item.get_class()]
+			for property in item.get_property_list():
+				if (
+					property["usage"] & PROPERTY_USAGE_STORAGE
+					and property["name"] != "resource_path"
+				):
+					values.append([property["name"], item.get(property["name"])])
+			described.append(values)
+	return described
+
+
+func _start(timeline: MotionTimeline) -> TestCharacter:
+	var character := TestCharacter.new(null, tree.root)
+	character.generator.seed = SEED
+	character.generator.timeline = timeline
+	return character
+
+
+func test_a_saved_timeline_loads_back_with_every_track() -> void:
+	var timeline := _every_track()
+	var path := "user://timeline_round_trip.tres"
+	check_eq(ResourceSaver.save(timeline, path), OK, "the timeline was saved")
+	var loaded: MotionTimeline = ResourceLoader.load(path, "", ResourceLoader.CACHE_MODE_IGNORE)
+	check(loaded != null and loaded != timeline, "a new MotionTimeline was loaded")
+	check_eq(loaded.get_waypoints().size(), 2, "two waypoints came back")
+	check_eq(_describe(loaded), _describe(timeline), "every track and item property")
+	DirAccess.remove_absolute(ProjectSettings.globalize_path(path))
+
+
+func test_playing_a_timeline_reaches_its_waypoint_and_keyframe() -> void:
+	var character := _start(_walk_then_hands_up())
+	var generator := character.generator
+	var skeleton := character.skeleton
+	var all_bones: PackedStringArray = []
+	for bone in skeleton.get_bone_count():
+		all_bones.append(skeleton.get_bone_name(bone))
+	character.watched = all_bones
+	var hips_bases: Array[Basis] = []
+	skeleton.skeleton_updated.connect(
+		func() -> void: hips_bases.append(skeleton.get_bone_global_pose(0).basis)
+	)
+	var finished := [false]
+	generator.timeline_finished.connect(func() -> void: finished[0] = true)
+	generator.playing = true
+	check(await character.wait_until_generating(tree), "generating: " + generator.get_last_error())
+	check(await character.wait_until_time(tree, 6.1), "the clock passed the timeline's end")
+	var hips := character.position_at("Hips", 3.0)
+	var miss := Vector2(hips.x - 0.5, hips.z - 3.0).length()
+	print("  timeline waypoint at 3 s: missed by %.3f m" % miss)
+	check(miss <= 0.3, "the waypoint was missed by %.3f m, expected at most 0.3 m" % miss)
+
+	var copy := TestRigs.model_rig(TestCharacter.MODEL)
+	for bone_name: String in HANDS_UP:
+		copy.set_bone_pose_rotation(copy.find_bone(bone_name), HANDS_UP[bone_name])
+	var wanted := {}
+	for bone in copy.get_bone_count():
+		wanted[copy.get_bone_name(bone)] = copy.get_bone_global_pose(bone).origin
+	var wanted_shape := TestCharacter.body_shape(wanted, Basis())
+	copy.free()
+	var index := -1
+	for i in character.samples.size():
+		if character.samples[i]["time"] <= 5.5:
+			index = i
+	var shown := TestCharacter.body_shape(character.samples[index]["bones"], hips_bases[index])
+	var total := 0.0
+	for bone_name: String in wanted_shape:
+		total += (shown[bone_name] - wanted_shape[bone_name]).length()
+	var mean: float = total / wanted_shape.size()
+	print("  timeline keyframe at 5.5 s: mean joint error %.3f m" % mean)
+	check(mean <= 0.15, "mean joint error %.3f m at the keyframe, expected at most 0.15 m" % mean)
+	check(finished[0], "timeline_finished was emitted")
+	character.dispose()
+
+
+## World transforms of every bone a few frames on. A modifier's pose is seen
+## only in the skeleton's update (the skeleton restores its own poses after
+## it); an AnimationPlayer's poses stay.
+func _bone_poses(skeleton: Skeleton3D, modified: bool) -> Array[Transform3D]:
+	for frame in 2:
+		await (skeleton.skeleton_updated if modified else tree.process_frame)
+	var poses: Array[Transform3D] = []
+	for bone in skeleton.get_bone_count():
+		poses.append(skeleton.global_transform * skeleton.get_bone_global_pose(bone))
+	return poses
+
+
+func test_a_baked_animation_replays_the_generated_pose() -> void:
+	var character := _start(_walk_then_hands_up())
+	var generator := character.generator
+	var animation: Animation = generator.bake_animation(4.0, 30.0)
+	check(animation != null, "baked: " + generator.get_last_error())
+	check(absf(animation.length - (4.0 - 1.0 / 30.0)) < 0.04, "length %.3f s" % animation.length)
+	var bones := character.skeleton.get_bone_count()
+	# Every bone of the model's own rig is driven, plus the hips' position.
+	check_eq(animation.get_track_count(), bones + 1, "tracks")
+
+	var player_root := Node3D.new()
+	player_root.name = "Replay"
+	var replay := TestRigs.model_rig(TestCharacter.MODEL)
+	replay.name = character.skeleton.name
+	player_root.add_child(replay)
+	var player := AnimationPlayer.new()
+	player_root.add_child(player)
+	tree.root.add_child(player_root)
+	var library := AnimationLibrary.new()
+	library.add_animation("motion", animation)
+	player.add_animation_library("", library)
+	player.play("motion")
+	player.pause()
+
+	var worst_metres := 0.0
+	var worst_degrees := 0.0
+	for time: float in [0.0, 0.75, 1.9, 3.3, 3.9]:
+		generator.seek_clip(time)
+		var generated := await _bone_poses(character.skeleton, true)
+		player.seek(time, true)
+		var replayed := await _bone_poses(replay, false)
+		for bone in bones:
+			worst_metres = maxf(
+				worst_metres, generated[bone].origin.distance_to(replayed[bone].origin)
+			)
+			var turn := generated[bone].basis.get_rotation_quaternion().angle_to(
+				replayed[bone].basis.get_rotation_quaternion()
+			)
+			worst_degrees = maxf(worst_degrees, rad_to_deg(turn))
+	print(
+		(
+			"  bake: worst bone %.4f m, %.3f deg from the generated pose"
+			% [worst_metres, worst_degrees]
+		)
+	)
+	check(worst_metres <= 0.01, "a bone is %.4f m off, expected at most 1 cm" % worst_metres)
+	check(worst_degrees <= 1.0, "a bone is %.3f deg off, expected at most 1 deg" % worst_degrees)
+	player_root.free()
+	character.dispose()
+
+
+## The frame lines of a BVH file as rows of numbers.
+func _bvh_frames(path: String) -> Array[PackedFloat64Array]:
+	var rows: Array[PackedFloat64Array] = []
+	var in_motion := false
+	for line in FileAccess.get_file_as_string(path).split("\n"):
+		if line.begins_with("Frame Time:"):
+			in_motion = true
+		elif in_motion and not line.strip_edges().is_empty():
+			rows.append(line.split_floats(" "))
+	return rows
+
+
+func test_the_json_timeline_gives_the_cli_the_same_motion() -> void:
+	var cli := OS.get_environment("ARDY_CLI")
+	check(FileAccess.file_exists(cli), "ARDY_CLI names the ardy-generate binary (found '%s')" % cli)
+	var character := _start(_walk_then_hands_up())
+	var generator := character.generator
+	var node_bvh := ProjectSettings.globalize_path("user://timeline_node.bvh")
+	var cli_bvh := ProjectSettings.globalize_path("user://timeline_cli.bvh")
+	var json_path := ProjectSettings.globalize_path("user://timeline.json")
+	check_eq(generator.export_bvh(node_bvh, 4.0), OK, "export_bvh: " + generator.get_last_error())
+	var json := generator.timeline_to_json()
+	check(json.contains('"waypoint"'), "the JSON has the waypoint")
+	var file := FileAccess.open(json_path, FileAccess.WRITE)
+	file.store_string(json)
+	file.close()
+	var output := []
+	var arguments := [
+		"--model",
+		ProjectSettings.globalize_path(TestCharacter.MODEL),
+		"--timeline",
+		json_path,
+		"--seconds",
+		"4",
+		"--seed",
+		str(SEED),
+		"--history-seconds",
+		str(generator.history_seconds),
+		"--out-bvh",
+		cli_bvh
+	]
+	var code := OS.execute(cli, arguments, output, true)
+	check_eq(code, 0, "ardy-generate ran: " + "\n".join(output))
+	var ours := _bvh_frames(node_bvh)
+	var theirs := _bvh_frames(cli_bvh)
+	check(
+		ours.size() == theirs.size() and ours.size() >= 60,
+		"4 s of frames from each (the node %d, the CLI %d)" % [ours.size(), theirs.size()]
+	)
+	var worst := 0.0
+	for frame in mini(ours.size(), theirs.size()):
+		for channel in ours[frame].size():
+			worst = maxf(worst, absf(ours[frame][channel] - theirs[frame][channel]))
+	print("  node vs ardy-generate: largest channel difference %.6f over 4 s" % worst)
+	check(
+		worst <= 0.01,
+		"the node's and the CLI's motion differ by %.6f, expected float noise" % worst
+	)
+
+	# And back: the JSON read as a timeline writes the same JSON.
+	var imported: MotionTimeline = generator.timeline_from_json(json)
+	check(imported != null, "imported: " + generator.get_last_error())
+	check_eq(imported.waypoints.size(), 1, "one waypoint came back")
+	check_eq(imported.prompts.size(), 2, "two prompts came back")
+	var waypoint: MotionWaypoint = imported.waypoints[0]
+	check(waypoint.position.distance_to(Vector3(0.5, 0, 3)) < 1e-3, "at %s" % waypoint.position)
+	check(absf(waypoint.time - 3.0) < 1e-6, "the waypoint's time")
+	generator.timeline = imported
+	var again := JSON.parse_string(generator.timeline_to_json()) as Dictionary
+	var first := JSON.parse_string(json) as Dictionary
+	check_eq(again["prompts"], first["prompts"], "the prompts' JSON")
+	var features_worst := 0.0
+	var first_features: Array = first["constraints"][1]["features"]
+	var again_features: Array = again["constraints"][1]["features"]
+	for i in first_features.size():
+		features_worst = maxf(features_worst, absf(first_features[i] - again_features[i]))
+	check(features_worst < 1e-3, "the keyframe's features differ by %.5f" % features_worst)
+	check(
+		absf(again["constraints"][0]["x"] - first["constraints"][0]["x"]) < 1e-4,
+		"the waypoint's JSON"
+	)
+	for path in [node_bvh, cli_bvh, json_path]:
+		DirAccess.remove_absolute(path)
+	character.dispose()
+
+
+func test_a_bad_timeline_item_is_named_and_the_node_stays_usable() -> void:
+	var timeline := _walk_then_hands_up()
+	var path := MotionPath.new()
+	path.points = PackedVector3Array([Vector3.ZERO])
+	timeline.paths = [path]
+	var character := _start(timeline)
+	var generator := character.generator
+	expect_error("timeline paths[0]: the path has 1 points")
+	check(not generator.generate_clip(2.0), "generate_clip refused the timeline")
+	check(generator.get_last_error().contains("timeline paths[0]"), generator.get_last_error())
+	expect_error("seek_clip: there is no clip")
+	generator.seek_clip(1.0)
+	timeline.paths = []
+	check(generator.generate_clip(2.0), "fixed, it generates: " + generator.get_last_error())
+	check(absf(generator.get_clip_length() - 2.0) < 0.06, "a 2 s clip")
+	var root: Variant = generator.get_clip_root(1.0)
+	check(root is Transform3D, "get_clip_root gives a Transform3D")
+	character.dispose()
