@@ -1064,3 +1064,25 @@ TEST_CASE("the playhead holds the last frame while the model cannot keep up", "[
   planner.advance(0.5);
   CHECK(planner.time() == Catch::Approx(49.0 / kFps));
 }
+
+TEST_CASE("reset_prompts_at forgets the prompts queued after it", "[planner]") {
+  PlannerConfig config;
+  config.prompt = "a person walks";
+  config.initial_prompts = {{40, std::string("a person waves")}};
+  Planner planner(tiny_package(), config);
+  planner.reset_prompts_at(0.0, std::string("a person runs"));
+  for (int step = 0; step < 40; ++step) {
+    REQUIRE(planner.wait_idle());
+    planner.advance(0.1);
+  }
+  REQUIRE(planner.wait_idle());
+  int runs = 0, waves = 0;
+  for (const WindowRecord& record : planner.window_log()) {
+    if (record.outcome != WindowOutcome::published) continue;
+    runs += record.prompt == std::string("a person runs");
+    waves += record.prompt == std::string("a person waves");
+  }
+  CHECK(planner.time() > 3.5);
+  CHECK(runs >= 2);
+  CHECK(waves == 0);
+}
