@@ -175,6 +175,10 @@ Node *Node::get_parent() const {
 	return call_engine<Node *>(ARDY_ENGINE_METHOD(Node, get_parent), _owner);
 }
 
+void Node3D::update_gizmos() {
+	call_engine<void>(ARDY_ENGINE_METHOD(Node3D, update_gizmos), _owner);
+}
+
 Transform3D Node3D::get_global_transform() const {
 	return call_engine<Transform3D>(ARDY_ENGINE_METHOD(Node3D, get_global_transform), _owner);
 }

@@ -91,6 +91,7 @@ class Node3D : public Node {
 public:
 	Transform3D get_global_transform() const;
 	void set_global_transform(const Transform3D &transform);
+	void update_gizmos();
 };
 
 class Skeleton3D : public Node3D {

@@ -341,6 +341,7 @@ void MotionGenerator::set_preview_in_editor(bool preview) {
 	} else if (!preview_in_editor_) {
 		stop_planner();
 		remove_modifier();
+		showing_clip_ = false;  // the clip is kept; seek_clip shows it again
 	}
 }
 
@@ -972,6 +973,9 @@ void MotionGenerator::set_timeline(const Ref<MotionTimeline> &timeline) {
 	timeline_finished_ = false;
 	clip_.reset();
 	showing_clip_ = false;
+	if (in_editor_ && in_tree_) {
+		update_gizmos();  // the timeline's goals are drawn in the viewport
+	}
 	if (planner_) {
 		// From now on: the prompts queued by the timeline before are forgotten.
 		const double now = get_time();
@@ -1245,6 +1249,9 @@ bool MotionGenerator::generate_clip(double seconds) {
 		config.initial_constraints = std::move(timeline.constraints);
 		clip.motion = generate_offline(package_, std::move(config), seconds);
 		clip_ = std::move(clip);
+		if (in_editor_) {
+			update_gizmos();  // keyframe ghosts stand where the clip puts the character
+		}
 	} catch (const std::exception &failure) {
 		return fail(std::string("generate_clip: ") + failure.what());
 	}
@@ -1282,6 +1289,10 @@ void MotionGenerator::seek_clip(double seconds) {
 		fail("seek_clip: seconds is not a finite number");
 		return;
 	}
+	if (in_editor_ && !preview_in_editor_) {
+		fail("seek_clip: turn on preview_in_editor to show the clip in the editor");
+		return;
+	}
 	Skeleton3D *skeleton = find_skeleton();
 	if (!build_rig(skeleton)) {
 		fail("seek_clip: skeleton does not point to a Skeleton3D that can be driven");
@@ -1315,7 +1326,15 @@ Variant MotionGenerator::bake_animation(double seconds, double fps, Node *root_n
 		fail("bake_animation: fps is " + std::to_string(fps) + ", expected 1..240");
 		return Variant();
 	}
-	if (!generate_clip(seconds)) {
+	if (std::isfinite(seconds) && seconds <= 0.0) {
+		seconds = timeline_.is_valid() ? timeline_->get_length() : 10.0;
+	}
+	if (!load_model_now("bake_animation")) {
+		return Variant();
+	}
+	// One model frame more, so the animation's last key is at `seconds` itself.
+	const double frame_seconds = 1.0 / package_->fps();
+	if (!generate_clip(std::isfinite(seconds) ? std::min(seconds + frame_seconds, 3600.0) : seconds)) {
 		return Variant();
 	}
 	Node *root = root_node != nullptr ? root_node : get_parent();
@@ -1331,7 +1350,7 @@ Variant MotionGenerator::bake_animation(double seconds, double fps, Node *root_n
 	}
 	Animation *animation = memnew_object<Animation>();
 	const Variant result(animation);  // holds the reference
-	const double length = clip_->motion.seconds() - 1.0 / clip_->motion.fps;
+	const double length = std::min(seconds, clip_->motion.seconds() - 1.0 / clip_->motion.fps);
 	const auto keys = static_cast<int64_t>(std::floor(length * fps + 1e-6)) + 1;
 	Pose pose;
 	RigPose rig_pose;

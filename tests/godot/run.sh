@@ -3,7 +3,8 @@
 # Prints "godot: N passed, N failed" over: the test project's runner (one per
 # test_* method), the check that the engine printed no error line the tests did
 # not declare (check_log.py), the harness's own test (planted failures,
-# check_harness.py), the editor-help check and the exported-pack check; exits
+# check_harness.py), the editor-help check, the exported-pack check, the demo
+# driven by synthetic input and the editor test (tests/godot/editor/); exits
 # non-zero on any failure.
 set -uo pipefail
 
@@ -116,8 +117,14 @@ for test in test_demo_input test_crowd test_scene_switch; do
   demo_logs+=("$WORK/$test.log" "$WORK/$test-errors.log")
 done
 
+# The editor: the ARDY plugin loads in the real editor and its timeline dock's
+# edits undo and redo (tests/godot/editor/run.sh).
+bash "$ROOT/tests/godot/editor/run.sh" 2>&1 | tee "$WORK/editor-run.log" || status=1
+sed -nE 's/^editor: ([0-9]+ passed, [0-9]+ failed)$/\1/p' "$WORK/editor-run.log" >"$WORK/editor.log"
+[ -s "$WORK/editor.log" ] || echo "0 passed, 1 failed" >"$WORK/editor.log"
+
 read -r passed failed < <(grep -hE '^[0-9]+ passed, [0-9]+ failed$' "$WORK/runner.log" "$WORK/runner-errors.log" \
-    "$WORK/harness.log" "$WORK/docs.log" "$WORK/pack.log" "$WORK/pack-errors.log" "${demo_logs[@]}" | awk '{ p += $1; f += $3 } END { print p + 0, f + 0 }')
+    "$WORK/harness.log" "$WORK/docs.log" "$WORK/pack.log" "$WORK/pack-errors.log" "$WORK/editor.log" "${demo_logs[@]}" | awk '{ p += $1; f += $3 } END { print p + 0, f + 0 }')
 if [ "$passed" -eq 0 ] || [ $status -ne 0 ]; then
   failed=$((failed > 0 ? failed : 1))
 fi
