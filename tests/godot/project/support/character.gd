@@ -9,7 +9,8 @@ const MODEL := "res://addons/ardy/models/default"
 var root: Node3D
 var skeleton: Skeleton3D
 var generator: MotionGenerator
-## One entry per skeleton update: {"time": motion clock, "bones": {name: Vector3}}.
+## One entry per skeleton update: {"time": motion clock, "bones": {name: Vector3},
+## "hips_basis": the root bone's basis in the skeleton}.
 var samples: Array[Dictionary] = []
 var watched: PackedStringArray = ["Hips", "Hand_R", "UpperArm_R", "Head"]
 ## Off for tests that measure memory: the samples grow with every frame.
@@ -40,7 +41,16 @@ func _record() -> void:
 			bones[bone_name] = (
 				skeleton.global_transform * skeleton.get_bone_global_pose(bone).origin
 			)
-	samples.append({"time": generator.get_time(), "bones": bones})
+	(
+		samples
+		. append(
+			{
+				"time": generator.get_time(),
+				"bones": bones,
+				"hips_basis": skeleton.get_bone_global_pose(0).basis,
+			}
+		)
+	)
 
 
 ## Waits (real frames) until the model is loaded and generation has started.
@@ -70,6 +80,36 @@ func position_at(bone_name: String, seconds: float) -> Vector3:
 
 func last_position(bone_name: String) -> Vector3:
 	return samples.back()["bones"][bone_name] if not samples.is_empty() else Vector3.INF
+
+
+## Records every bone of the rig (the hips' world basis is in every sample).
+func watch_every_bone() -> void:
+	var names: PackedStringArray = []
+	for bone in skeleton.get_bone_count():
+		names.append(skeleton.get_bone_name(bone))
+	watched = names
+
+
+## The mean distance, over every bone, between the body's shape in the last
+## sample at or before `seconds` and the shape of `pose` (bone name -> local
+## rotation) on a copy of the model's rig.
+func pose_error(pose: Dictionary, seconds: float) -> float:
+	var copy := TestRigs.model_rig(MODEL)
+	for bone_name: String in pose:
+		copy.set_bone_pose_rotation(copy.find_bone(bone_name), pose[bone_name])
+	var wanted := {}
+	for bone in copy.get_bone_count():
+		wanted[copy.get_bone_name(bone)] = copy.get_bone_global_pose(bone).origin
+	copy.free()
+	var wanted_shape := body_shape(wanted, Basis())
+	var shown := {}
+	for sample in samples:
+		if sample["time"] <= seconds:
+			shown = body_shape(sample["bones"], sample["hips_basis"])
+	var total := 0.0
+	for bone_name: String in wanted_shape:
+		total += (shown[bone_name] - wanted_shape[bone_name]).length()
+	return total / wanted_shape.size()
 
 
 ## Bone positions relative to the hips, turned so the hips face +Z: the

@@ -118,15 +118,7 @@ func test_a_saved_timeline_loads_back_with_every_track() -> void:
 func test_playing_a_timeline_reaches_its_waypoint_and_keyframe() -> void:
 	var character := _start(_walk_then_hands_up())
 	var generator := character.generator
-	var skeleton := character.skeleton
-	var all_bones: PackedStringArray = []
-	for bone in skeleton.get_bone_count():
-		all_bones.append(skeleton.get_bone_name(bone))
-	character.watched = all_bones
-	var hips_bases: Array[Basis] = []
-	skeleton.skeleton_updated.connect(
-		func() -> void: hips_bases.append(skeleton.get_bone_global_pose(0).basis)
-	)
+	character.watch_every_bone()
 	var finished := [false]
 	generator.timeline_finished.connect(func() -> void: finished[0] = true)
 	generator.playing = true
@@ -137,23 +129,7 @@ func test_playing_a_timeline_reaches_its_waypoint_and_keyframe() -> void:
 	print("  timeline waypoint at 3 s: missed by %.3f m" % miss)
 	check(miss <= 0.3, "the waypoint was missed by %.3f m, expected at most 0.3 m" % miss)
 
-	var copy := TestRigs.model_rig(TestCharacter.MODEL)
-	for bone_name: String in HANDS_UP:
-		copy.set_bone_pose_rotation(copy.find_bone(bone_name), HANDS_UP[bone_name])
-	var wanted := {}
-	for bone in copy.get_bone_count():
-		wanted[copy.get_bone_name(bone)] = copy.get_bone_global_pose(bone).origin
-	var wanted_shape := TestCharacter.body_shape(wanted, Basis())
-	copy.free()
-	var index := -1
-	for i in character.samples.size():
-		if character.samples[i]["time"] <= 5.5:
-			index = i
-	var shown := TestCharacter.body_shape(character.samples[index]["bones"], hips_bases[index])
-	var total := 0.0
-	for bone_name: String in wanted_shape:
-		total += (shown[bone_name] - wanted_shape[bone_name]).length()
-	var mean: float = total / wanted_shape.size()
+	var mean := character.pose_error(HANDS_UP, 5.5)
 	print("  timeline keyframe at 5.5 s: mean joint error %.3f m" % mean)
 	check(mean <= 0.15, "mean joint error %.3f m at the keyframe, expected at most 0.15 m" % mean)
 	check(finished[0], "timeline_finished was emitted")
