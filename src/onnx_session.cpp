@@ -377,13 +377,20 @@ const TensorInfo* OnnxSession::find_output(const std::string& name) const {
 
 std::vector<Tensor> OnnxSession::run(const std::vector<std::pair<std::string, Tensor>>& inputs,
                                      const std::vector<std::string>& output_names) const {
+  check_inputs(inputs, nullptr);
+  return execute(inputs, check_outputs(output_names));
+}
+
+void OnnxSession::check_inputs(const std::vector<std::pair<std::string, Tensor>>& inputs,
+                               const std::vector<bool>* values_of) const {
   const Impl& s = impl();
   const std::string& session_name = s.name;
 
   // --- inputs: names, dtypes, shapes, element counts, finiteness ---------
   std::set<std::string> given;
   std::map<std::string, std::pair<int64_t, std::string>> symbolic_sizes;  // axis name -> (size, input)
-  for (const auto& [input_name, tensor] : inputs) {
+  for (size_t input = 0; input < inputs.size(); ++input) {
+    const auto& [input_name, tensor] = inputs[input];
     const std::string where = session_name + ": input " + in_quotes(input_name);
     const TensorInfo* info = s.find(s.inputs, input_name);
     if (info == nullptr) {
@@ -421,7 +428,7 @@ std::vector<Tensor> OnnxSession::run(const std::vector<std::pair<std::string, Te
       throw Error(where + ": shape " + format_shape(tensor.shape) + " needs " + std::to_string(count) +
                   " elements, got " + std::to_string(tensor.stored_count()));
     }
-    if (tensor.dtype == ElementType::float32) {
+    if (tensor.dtype == ElementType::float32 && (values_of == nullptr || (*values_of)[input])) {
       for (size_t i = 0; i < tensor.data.size(); ++i) {
         if (!std::isfinite(tensor.data[i])) {
           throw Error(where + ": element " + std::to_string(i) + " is " +
@@ -436,8 +443,11 @@ std::vector<Tensor> OnnxSession::run(const std::vector<std::pair<std::string, Te
                   info.dtype);
     }
   }
+}
 
-  // --- outputs: names; empty = all, in graph order -------------------------
+std::vector<std::string> OnnxSession::check_outputs(const std::vector<std::string>& output_names) const {
+  const Impl& s = impl();
+  const std::string& session_name = s.name;
   std::vector<std::string> wanted = output_names;
   if (wanted.empty()) {
     for (const TensorInfo& info : s.outputs) wanted.push_back(info.name);
@@ -459,8 +469,13 @@ std::vector<Tensor> OnnxSession::run(const std::vector<std::pair<std::string, Te
                   "; only float32 and int64 outputs are supported");
     }
   }
+  return wanted;
+}
 
-  // --- run ----------------------------------------------------------------
+std::vector<Tensor> OnnxSession::execute(const std::vector<std::pair<std::string, Tensor>>& inputs,
+                                         const std::vector<std::string>& wanted) const {
+  const Impl& s = impl();
+  const std::string& session_name = s.name;
   try {
     std::vector<const char*> input_names;
     std::vector<Ort::Value> input_values;
@@ -515,6 +530,47 @@ std::vector<Tensor> OnnxSession::run(const std::vector<std::pair<std::string, Te
   } catch (const std::bad_alloc&) {
     throw Error(session_name + ": out of memory during inference");
   }
+}
+
+// --- RepeatedRun ---------------------------------------------------------------
+
+RepeatedRun::RepeatedRun(const OnnxSession& session, std::vector<std::pair<std::string, Tensor>> inputs,
+                         std::vector<std::string> output_names)
+    : session_(&session), inputs_(std::move(inputs)), changed_(inputs_.size(), false) {
+  session.check_inputs(inputs_, nullptr);
+  outputs_ = session.check_outputs(output_names);
+}
+
+size_t RepeatedRun::index_of(const std::string& input, ElementType dtype) const {
+  for (size_t i = 0; i < inputs_.size(); ++i) {
+    if (inputs_[i].first != input) continue;
+    if (inputs_[i].second.dtype != dtype) {
+      throw Error(session_->name() + ": input " + in_quotes(input) + " holds " +
+                  element_type_name(inputs_[i].second.dtype) + ", not " + element_type_name(dtype));
+    }
+    return i;
+  }
+  throw Error(session_->name() + ": this run has no input " + in_quotes(input));
+}
+
+std::vector<float>& RepeatedRun::values(const std::string& input) {
+  const size_t i = index_of(input, ElementType::float32);
+  changed_[i] = true;
+  return inputs_[i].second.data;
+}
+
+std::vector<int64_t>& RepeatedRun::int64_values(const std::string& input) {
+  const size_t i = index_of(input, ElementType::int64);
+  changed_[i] = true;
+  return inputs_[i].second.int64_data;
+}
+
+std::vector<Tensor> RepeatedRun::run() {
+  // Shapes are fixed, but a caller may have resized a vector: check_inputs
+  // compares every element count again (cheap) and scans the changed values.
+  session_->check_inputs(inputs_, &changed_);
+  std::fill(changed_.begin(), changed_.end(), false);
+  return session_->execute(inputs_, outputs_);
 }
 
 }  // namespace ardy

@@ -124,10 +124,43 @@ class OnnxSession {
                           const std::vector<std::string>& output_names) const;
 
  private:
+  friend class RepeatedRun;
+  // The checks of run(): every input's name, dtype and shape, and the values
+  // of those in `values_of` (all when null) finite. Throws Error.
+  void check_inputs(const std::vector<std::pair<std::string, Tensor>>& inputs,
+                    const std::vector<bool>* values_of) const;
+  // Output names -> the list to fetch (all when empty). Throws Error.
+  std::vector<std::string> check_outputs(const std::vector<std::string>& output_names) const;
+  std::vector<Tensor> execute(const std::vector<std::pair<std::string, Tensor>>& inputs,
+                              const std::vector<std::string>& outputs) const;
+
   struct Impl;
   explicit OnnxSession(std::unique_ptr<Impl> impl);
   const Impl& impl() const;
   std::unique_ptr<Impl> impl_;
+};
+
+// One session run many times with inputs of fixed shapes, most of which stay
+// the same between runs (a DDIM loop changes only x_t and the step). Every
+// input is checked once when made; values() gives write access to one input
+// and has run() check it again, so unchanged inputs are not scanned at every
+// call. The session must outlive this object.
+class RepeatedRun {
+ public:
+  RepeatedRun(const OnnxSession& session, std::vector<std::pair<std::string, Tensor>> inputs,
+              std::vector<std::string> output_names);
+  // The elements of one input (float32 or int64, its shape fixed); Error for
+  // an unknown name or the other dtype.
+  std::vector<float>& values(const std::string& input);
+  std::vector<int64_t>& int64_values(const std::string& input);
+  std::vector<Tensor> run();
+
+ private:
+  size_t index_of(const std::string& input, ElementType dtype) const;
+  const OnnxSession* session_;
+  std::vector<std::pair<std::string, Tensor>> inputs_;
+  std::vector<std::string> outputs_;
+  std::vector<bool> changed_;
 };
 
 }  // namespace ardy

@@ -432,10 +432,12 @@ struct ModelPackage::Impl {
   std::unique_ptr<Normalization> latent_norm;
   DiffusionSchedule schedule;
   SamplingDefaults defaults;
+  DenoiserSizes denoiser_sizes;
   TextSettings text;
   std::map<std::string, GraphSpec> graphs;
   std::shared_ptr<OnnxEnvironment> env;
   // Sessions after the environment: destroyed first.
+  std::unique_ptr<OnnxSession> history;
   std::unique_ptr<OnnxSession> denoiser;
   std::unique_ptr<OnnxSession> decoder;
   std::unique_ptr<OnnxSession> encoder;
@@ -457,7 +459,12 @@ void ModelPackage::Impl::parse(const Manifest& m) {
   if (!version.is_number_integer() || version.get<int64_t>() != kPackageFormatVersion) {
     m.fail("format_version", "is " + describe_json(version) + ", expected " + std::to_string(kPackageFormatVersion) +
                                  " (this runtime reads format version " + std::to_string(kPackageFormatVersion) +
-                                 " only; re-export the package or update the runtime)");
+                                 " only; re-export the package or update the runtime" +
+                                 (version.is_number_integer() && version.get<int64_t>() == 1
+                                      ? std::string("; a version 1 package's weights re-export with "
+                                                    "'ardy-export recover-checkpoint' then 'ardy-export export'")
+                                      : std::string()) +
+                                 ")");
   }
   fps = m.number("fps");
   if (!(fps > 0.0) || fps > 1000.0) m.fail("fps", "is " + describe_json(m.at("fps")) + ", expected 0 < fps <= 1000");
@@ -598,6 +605,21 @@ void ModelPackage::Impl::parse(const Manifest& m) {
   }
   if (m.has("sampling.interpolate_root")) defaults.interpolate_root = m.boolean("sampling.interpolate_root");
 
+  // --- denoiser sizes ------------------------------------------------------------------------
+  denoiser_sizes.two_stage = m.boolean("denoiser.two_stage");
+  if (!m.boolean("denoiser.history_self_only")) {
+    m.fail("denoiser.history_self_only",
+           "is false, expected true (the history graph's keys and values must not depend on the window)");
+  }
+  denoiser_sizes.width = m.size("denoiser.width", 1, 1 << 16);
+  denoiser_sizes.layers = m.size("denoiser.layers", 1, 1024);
+  denoiser_sizes.heads = m.size("denoiser.heads", 1, 1024);
+  denoiser_sizes.ff_mult = m.size("denoiser.ff_mult", 1, 1024);
+  if (denoiser_sizes.width % denoiser_sizes.heads != 0) {
+    m.fail("denoiser.heads", "is " + std::to_string(denoiser_sizes.heads) + ", expected a divisor of denoiser.width (" +
+                                 std::to_string(denoiser_sizes.width) + ")");
+  }
+
   // --- text ---------------------------------------------------------------------------------
   text.graph_file = m.string("text.graph");
   text.vocab_file = m.string("text.vocab");
@@ -630,7 +652,7 @@ void ModelPackage::Impl::parse(const Manifest& m) {
   }
 
   // --- graphs -----------------------------------------------------------------------------------
-  for (const char* key : {"denoiser", "decoder", "encoder", "text_encoder"}) {
+  for (const char* key : {"history", "denoiser", "decoder", "encoder", "text_encoder"}) {
     GraphSpec spec;
     spec.key = key;
     const std::string base = std::string("graphs.") + key;
@@ -656,13 +678,23 @@ std::vector<ExpectedGraph> ModelPackage::Impl::contract() const {
   const ExpectedDim cd = fixed(c, "tokens.window");
   const ExpectedDim dd = fixed(d, "tokens.token_dim");
   const ExpectedDim gd = fixed(pm, "tokens.goal_dim");
+  const DenoiserSizes& ds = denoiser_sizes;
+  const std::vector<ExpectedDim> keys_values{b,
+                                             fixed(ds.cached_layers(), "stages * denoiser.layers"),
+                                             fixed(2, "keys and values"),
+                                             fixed(ds.heads, "denoiser.heads"),
+                                             symbolic("H"),
+                                             fixed(ds.head_dim(), "denoiser.width / heads")};
   std::vector<ExpectedGraph> out;
+  out.push_back({"history",
+                 {{"history", "float32", {b, symbolic("H"), dd}}, {"history_mask", "float32", {b, symbolic("H")}}},
+                 {{"history_kv", "float32", keys_values}}});
   out.push_back({"denoiser",
                  {{"x_t", "float32", {b, cd, dd}},
                   {"step", "int64", {b}},
                   {"text_embedding", "float32", {b, fixed(e, "text.embedding_size")}},
                   {"text_keep", "float32", {b}},
-                  {"history", "float32", {b, symbolic("H"), dd}},
+                  {"history_kv", "float32", keys_values},
                   {"history_mask", "float32", {b, symbolic("H")}},
                   {"window_goal", "float32", {b, cd, gd}},
                   {"window_goal_mask", "float32", {b, cd, gd}},
@@ -721,6 +753,7 @@ std::unique_ptr<ModelPackage::Impl> ModelPackage::Impl::load(const FileSource& s
     check_graph(*session, spec, manifest_file);
     return session;
   };
+  impl->history = load_graph("history");
   impl->denoiser = load_graph("denoiser");
   impl->decoder = load_graph("decoder");
   impl->encoder = load_graph("encoder");
@@ -852,7 +885,9 @@ const DiffusionSchedule& ModelPackage::schedule() const { return impl().schedule
 const SamplingDefaults& ModelPackage::sampling_defaults() const { return impl().defaults; }
 const TextSettings& ModelPackage::text_settings() const { return impl().text; }
 size_t ModelPackage::text_embedding_size() const { return impl().text.embedding_size; }
+const OnnxSession& ModelPackage::history() const { return *impl().history; }
 const OnnxSession& ModelPackage::denoiser() const { return *impl().denoiser; }
+const DenoiserSizes& ModelPackage::denoiser_sizes() const { return impl().denoiser_sizes; }
 const OnnxSession& ModelPackage::decoder() const { return *impl().decoder; }
 const OnnxSession& ModelPackage::encoder() const { return *impl().encoder; }
 const TextEncoder& ModelPackage::text_encoder() const { return *impl().text_encoder; }

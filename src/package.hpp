@@ -35,7 +35,9 @@
 namespace ardy {
 
 inline constexpr const char* kPackageFormat = "ardy-model-package";
-inline constexpr int kPackageFormatVersion = 1;
+// 2: the history's keys and values come from the history graph, once per
+// window (1: the denoiser took the history tokens at every call).
+inline constexpr int kPackageFormatVersion = 2;
 
 // tokens.* of model.json (docs/model_contract.md section 1).
 struct TokenSizes {
@@ -56,6 +58,20 @@ struct DiffusionSchedule {
   size_t num_steps() const { return alphas_cumprod.size(); }
 };
 
+// denoiser.* of model.json: the transformers' sizes. The history graph's keys
+// and values are [B, stages * layers, 2, heads, H, width / heads]; the bench
+// counts FLOPs with them.
+struct DenoiserSizes {
+  bool two_stage = true;
+  size_t width = 0;
+  size_t layers = 0;
+  size_t heads = 0;
+  size_t ff_mult = 0;
+  size_t stages() const { return two_stage ? 2 : 1; }
+  size_t head_dim() const { return width / heads; }
+  size_t cached_layers() const { return stages() * layers; }
+};
+
 // sampling.* of model.json.
 struct SamplingDefaults {
   size_t steps = 4;
@@ -68,7 +84,7 @@ struct SamplingDefaults {
 
 // The names and signature of one graph (graphs.<key> of model.json).
 struct GraphSpec {
-  std::string key;   // "denoiser", "decoder", "encoder", "text_encoder"
+  std::string key;   // "history", "denoiser", "decoder", "encoder", "text_encoder"
   std::string file;  // e.g. "denoiser.onnx"
   std::vector<TensorInfo> inputs;
   std::vector<TensorInfo> outputs;
@@ -144,9 +160,13 @@ class ModelPackage {
   const Normalization& latent_normalization() const;   // [L]
   const DiffusionSchedule& schedule() const;
   const SamplingDefaults& sampling_defaults() const;
+  const DenoiserSizes& denoiser_sizes() const;
   const TextSettings& text_settings() const;
   size_t text_embedding_size() const;  // E: denoiser text_embedding width
 
+  // The history's keys and values (once per window), then the denoiser that
+  // takes them (every step, every guidance row).
+  const OnnxSession& history() const;
   const OnnxSession& denoiser() const;
   const OnnxSession& decoder() const;
   const OnnxSession& encoder() const;

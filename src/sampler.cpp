@@ -242,6 +242,126 @@ void overwrite_root(const WindowInput& in, const FeatureLayout& layout, const To
   }
 }
 
+// Every window's history keys and values, from one history graph call:
+// [W, stages * layers, 2, heads, h_max, head_dim], each window's history
+// right-aligned (padding first, masked).
+struct HistoryKeysValues {
+  size_t tokens = 0;                // h_max
+  size_t values_per_window = 0;     // stages * layers * 2 * heads * h_max * head_dim
+  std::vector<float> mask;          // [W, h_max]
+  std::vector<float> keys_values;   // [W, ...]
+  std::vector<int64_t> row_shape;   // the denoiser's history_kv shape without the batch axis
+};
+
+HistoryKeysValues history_keys_values(const ModelPackage& package, const std::vector<const WindowInput*>& windows,
+                                      size_t h_max) {
+  const size_t d = package.tokens().token_dim, count = windows.size();
+  HistoryKeysValues out;
+  out.tokens = h_max;
+  std::vector<float> history(count * h_max * d, 0.0f);
+  out.mask.assign(count * h_max, 0.0f);
+  for (size_t w = 0; w < count; ++w) {
+    const WindowInput& in = *windows[w];
+    const size_t h = in.history_tokens;
+    std::copy(in.history.begin(), in.history.end(), history.begin() + static_cast<std::ptrdiff_t>((w * h_max + h_max - h) * d));
+    std::fill(out.mask.begin() + static_cast<std::ptrdiff_t>(w * h_max + h_max - h),
+              out.mask.begin() + static_cast<std::ptrdiff_t>((w + 1) * h_max), 1.0f);
+  }
+  const auto wi = static_cast<int64_t>(count), hi = static_cast<int64_t>(h_max);
+  const DenoiserSizes& sizes = package.denoiser_sizes();
+  out.row_shape = {static_cast<int64_t>(sizes.cached_layers()), 2, static_cast<int64_t>(sizes.heads), hi,
+                   static_cast<int64_t>(sizes.head_dim())};
+  // Without history there is nothing to compute (and ONNX Reshape reads a 0
+  // in a target shape as "keep this axis", so the graph cannot take H = 0).
+  if (h_max == 0) return out;
+  std::vector<std::pair<std::string, Tensor>> inputs;
+  inputs.emplace_back("history", Tensor::float32({wi, hi, static_cast<int64_t>(d)}, std::move(history)));
+  inputs.emplace_back("history_mask", Tensor::float32({wi, hi}, out.mask));
+  Tensor result = std::move(package.history().run(inputs, {"history_kv"}).at(0));
+  std::vector<int64_t> expected{wi};
+  expected.insert(expected.end(), out.row_shape.begin(), out.row_shape.end());
+  if (result.shape != expected) {
+    throw Error(package.history().name() + ": output 'history_kv' has shape " + shape_text(result.shape) +
+                ", expected " + shape_text(expected));
+  }
+  check_finite_output(package.history().name(), "history_kv", result.data);
+  out.values_per_window = count ? result.data.size() / count : 0;
+  out.keys_values = std::move(result.data);
+  return out;
+}
+
+// Guidance rows that share one denoiser call per step. Rows whose constraints
+// are off (constraint_keep 0) ignore every goal and future token, so they go
+// in a call with no future tokens at all: exact, since the graph masks those
+// tokens out of their attention, and they are most of a window's tokens.
+struct RowGroup {
+  std::vector<std::pair<size_t, size_t>> members;  // (window, guidance row) per batch row
+  std::unique_ptr<RepeatedRun> run;
+  Tensor output;
+};
+
+RowGroup make_row_group(const ModelPackage& package, const std::vector<const WindowInput*>& windows,
+                        const std::vector<std::vector<GuidanceRow>>& rows_of, const HistoryKeysValues& history,
+                        bool constrained) {
+  const TokenSizes& t = package.tokens();
+  const size_t c = t.window, d = t.token_dim, pm = t.goal_dim, e = package.text_embedding_size();
+  RowGroup group;
+  size_t f_max = 0;
+  for (size_t w = 0; w < windows.size(); ++w) {
+    for (size_t k = 0; k < rows_of[w].size(); ++k) {
+      if ((rows_of[w][k].constraint_keep != 0.0f) != constrained) continue;
+      group.members.emplace_back(w, k);
+      if (constrained) f_max = std::max(f_max, windows[w]->goals.future_tokens);
+    }
+  }
+  const size_t rows = group.members.size();
+  if (rows == 0) return group;
+  const size_t h_max = history.tokens, kv = history.values_per_window;
+  std::vector<float> text_embedding(rows * e, 0.0f), text_keep(rows, 0.0f), constraint_keep(rows, 0.0f);
+  std::vector<float> keys_values(rows * kv), history_mask(rows * h_max);
+  std::vector<float> window_goal(rows * c * pm, 0.0f), window_goal_mask(rows * c * pm, 0.0f);
+  std::vector<float> future_goal(rows * f_max * pm, 0.0f), future_goal_mask(rows * f_max * pm, 0.0f);
+  std::vector<float> future_mask(rows * f_max, 0.0f);
+  for (size_t r = 0; r < rows; ++r) {
+    const auto [w, k] = group.members[r];
+    const WindowInput& in = *windows[w];
+    const GuidanceRow& row = rows_of[w][k];
+    if (in.text_embedding) std::copy(in.text_embedding->begin(), in.text_embedding->end(), text_embedding.begin() + r * e);
+    text_keep[r] = row.text_keep;
+    constraint_keep[r] = row.constraint_keep;
+    std::copy_n(history.keys_values.begin() + static_cast<std::ptrdiff_t>(w * kv), kv, keys_values.begin() + r * kv);
+    std::copy_n(history.mask.begin() + static_cast<std::ptrdiff_t>(w * h_max), h_max, history_mask.begin() + r * h_max);
+    if (!constrained) continue;  // the graph zeroes goals of rows with constraint_keep 0
+    std::copy(in.goals.window_goal.begin(), in.goals.window_goal.end(), window_goal.begin() + r * c * pm);
+    std::copy(in.goals.window_goal_mask.begin(), in.goals.window_goal_mask.end(), window_goal_mask.begin() + r * c * pm);
+    // Future at the front: padding at the back.
+    std::copy(in.goals.future_goal.begin(), in.goals.future_goal.end(), future_goal.begin() + r * f_max * pm);
+    std::copy(in.goals.future_goal_mask.begin(), in.goals.future_goal_mask.end(),
+              future_goal_mask.begin() + r * f_max * pm);
+    std::copy(in.goals.future_mask.begin(), in.goals.future_mask.end(), future_mask.begin() + r * f_max);
+  }
+  const auto ri = static_cast<int64_t>(rows), ci = static_cast<int64_t>(c), pmi = static_cast<int64_t>(pm);
+  const auto hi = static_cast<int64_t>(h_max), fi = static_cast<int64_t>(f_max);
+  std::vector<int64_t> kv_shape{ri};
+  kv_shape.insert(kv_shape.end(), history.row_shape.begin(), history.row_shape.end());
+  std::vector<std::pair<std::string, Tensor>> inputs;
+  inputs.reserve(12);
+  inputs.emplace_back("x_t", Tensor::float32({ri, ci, static_cast<int64_t>(d)}, std::vector<float>(rows * c * d, 0.0f)));
+  inputs.emplace_back("step", Tensor::int64({ri}, std::vector<int64_t>(rows, 0)));
+  inputs.emplace_back("text_embedding", Tensor::float32({ri, static_cast<int64_t>(e)}, std::move(text_embedding)));
+  inputs.emplace_back("text_keep", Tensor::float32({ri}, std::move(text_keep)));
+  inputs.emplace_back("history_kv", Tensor::float32(std::move(kv_shape), std::move(keys_values)));
+  inputs.emplace_back("history_mask", Tensor::float32({ri, hi}, std::move(history_mask)));
+  inputs.emplace_back("window_goal", Tensor::float32({ri, ci, pmi}, std::move(window_goal)));
+  inputs.emplace_back("window_goal_mask", Tensor::float32({ri, ci, pmi}, std::move(window_goal_mask)));
+  inputs.emplace_back("future_goal", Tensor::float32({ri, fi, pmi}, std::move(future_goal)));
+  inputs.emplace_back("future_goal_mask", Tensor::float32({ri, fi, pmi}, std::move(future_goal_mask)));
+  inputs.emplace_back("future_mask", Tensor::float32({ri, fi}, std::move(future_mask)));
+  inputs.emplace_back("constraint_keep", Tensor::float32({ri}, std::move(constraint_keep)));
+  group.run = std::make_unique<RepeatedRun>(package.denoiser(), std::move(inputs), std::vector<std::string>{"x0"});
+  return group;
+}
+
 }  // namespace
 
 std::vector<std::vector<float>> sample_windows(const ModelPackage& package,
@@ -264,11 +384,11 @@ std::vector<std::vector<float>> sample_windows(const ModelPackage& package,
   }
   const TokenSizes& t = package.tokens();
   const FeatureLayout& layout = package.layout();
-  const size_t c = t.window, d = t.token_dim, pm = t.goal_dim, e = package.text_embedding_size();
+  const size_t c = t.window, d = t.token_dim;
   const size_t cd = c * d;
 
   std::vector<std::vector<GuidanceRow>> rows_of;
-  size_t rows = 0, h_max = 0, f_max = 0;
+  size_t h_max = 0;
   for (const WindowInput* w : windows) {
     rows_of.push_back(guidance_rows(w->w_text, w->w_con, w->text_embedding.has_value(), w->goals.has_constraints()));
     if (rows_of.back().empty()) {
@@ -276,60 +396,16 @@ std::vector<std::vector<float>> sample_windows(const ModelPackage& package,
       throw Error("sample_windows: the guidance weights leave no denoiser row (w_text " + std::to_string(w->w_text) +
                   ", w_con " + std::to_string(w->w_con) + ")");
     }
-    rows += rows_of.back().size();
     h_max = std::max(h_max, w->history_tokens);
-    f_max = std::max(f_max, w->goals.future_tokens);
-  }
-  const auto ri = static_cast<int64_t>(rows);
-  const auto ci = static_cast<int64_t>(c), di = static_cast<int64_t>(d), pmi = static_cast<int64_t>(pm);
-  const auto hi = static_cast<int64_t>(h_max), fi = static_cast<int64_t>(f_max);
-
-  std::vector<float> text_embedding(rows * e, 0.0f), text_keep(rows, 0.0f), constraint_keep(rows, 0.0f);
-  std::vector<float> history(rows * h_max * d, 0.0f), history_mask(rows * h_max, 0.0f);
-  std::vector<float> window_goal(rows * c * pm, 0.0f), window_goal_mask(rows * c * pm, 0.0f);
-  std::vector<float> future_goal(rows * f_max * pm, 0.0f), future_goal_mask(rows * f_max * pm, 0.0f);
-  std::vector<float> future_mask(rows * f_max, 0.0f);
-  size_t r = 0;
-  for (size_t w = 0; w < windows.size(); ++w) {
-    const WindowInput& in = *windows[w];
-    const size_t h = in.history_tokens, f = in.goals.future_tokens;
-    for (const GuidanceRow& row : rows_of[w]) {
-      if (in.text_embedding)
-        std::copy(in.text_embedding->begin(), in.text_embedding->end(), text_embedding.begin() + r * e);
-      text_keep[r] = row.text_keep;
-      constraint_keep[r] = row.constraint_keep;
-      // History right-aligned: padding at the front.
-      std::copy(in.history.begin(), in.history.end(), history.begin() + (r * h_max + (h_max - h)) * d);
-      std::fill(history_mask.begin() + r * h_max + (h_max - h), history_mask.begin() + (r + 1) * h_max, 1.0f);
-      std::copy(in.goals.window_goal.begin(), in.goals.window_goal.end(), window_goal.begin() + r * c * pm);
-      std::copy(in.goals.window_goal_mask.begin(), in.goals.window_goal_mask.end(),
-                window_goal_mask.begin() + r * c * pm);
-      // Future at the front: padding at the back.
-      std::copy(in.goals.future_goal.begin(), in.goals.future_goal.end(), future_goal.begin() + r * f_max * pm);
-      std::copy(in.goals.future_goal_mask.begin(), in.goals.future_goal_mask.end(),
-                future_goal_mask.begin() + r * f_max * pm);
-      std::copy(in.goals.future_mask.begin(), in.goals.future_mask.end(), future_mask.begin() + r * f_max);
-      (void)f;
-      ++r;
-    }
   }
 
-  std::vector<std::pair<std::string, Tensor>> inputs;
-  inputs.reserve(12);
-  inputs.emplace_back("x_t", Tensor::float32({ri, ci, di}, std::vector<float>(rows * cd, 0.0f)));
-  inputs.emplace_back("step", Tensor::int64({ri}, std::vector<int64_t>(rows, 0)));
-  inputs.emplace_back("text_embedding", Tensor::float32({ri, static_cast<int64_t>(e)}, std::move(text_embedding)));
-  inputs.emplace_back("text_keep", Tensor::float32({ri}, std::move(text_keep)));
-  inputs.emplace_back("history", Tensor::float32({ri, hi, di}, std::move(history)));
-  inputs.emplace_back("history_mask", Tensor::float32({ri, hi}, std::move(history_mask)));
-  inputs.emplace_back("window_goal", Tensor::float32({ri, ci, pmi}, std::move(window_goal)));
-  inputs.emplace_back("window_goal_mask", Tensor::float32({ri, ci, pmi}, std::move(window_goal_mask)));
-  inputs.emplace_back("future_goal", Tensor::float32({ri, fi, pmi}, std::move(future_goal)));
-  inputs.emplace_back("future_goal_mask", Tensor::float32({ri, fi, pmi}, std::move(future_goal_mask)));
-  inputs.emplace_back("future_mask", Tensor::float32({ri, fi}, std::move(future_mask)));
-  inputs.emplace_back("constraint_keep", Tensor::float32({ri}, std::move(constraint_keep)));
-  std::vector<float>& x_rows = inputs[0].second.data;
-  std::vector<int64_t>& step_rows = inputs[1].second.int64_data;
+  check_cancel(cancel);
+  const HistoryKeysValues history = history_keys_values(package, windows, h_max);
+  std::vector<RowGroup> groups;
+  for (const bool constrained : {false, true}) {
+    RowGroup group = make_row_group(package, windows, rows_of, history, constrained);
+    if (!group.members.empty()) groups.push_back(std::move(group));
+  }
 
   std::vector<std::vector<float>> x;  // current x_t of each window
   x.reserve(windows.size());
@@ -337,36 +413,45 @@ std::vector<std::vector<float>> sample_windows(const ModelPackage& package,
   std::vector<std::vector<float>> x0(windows.size(), std::vector<float>(cd, 0.0f));
 
   const std::vector<int64_t> timesteps = ddim_timesteps(package.schedule().num_steps(), windows[0]->steps);
-  const std::vector<int64_t> expected_shape{ri, ci, di};
+  // row_x0[w][k]: guidance row k of window w in its group's output of this step.
+  std::vector<std::vector<const float*>> row_x0(windows.size());
+  for (size_t w = 0; w < windows.size(); ++w) row_x0[w].resize(rows_of[w].size(), nullptr);
   for (size_t i = 0; i < timesteps.size(); ++i) {
-    check_cancel(cancel);
-    r = 0;
-    for (size_t w = 0; w < windows.size(); ++w) {
-      for (size_t k = 0; k < rows_of[w].size(); ++k, ++r) std::copy(x[w].begin(), x[w].end(), x_rows.begin() + r * cd);
+    for (RowGroup& group : groups) {
+      check_cancel(cancel);
+      std::vector<float>& x_rows = group.run->values("x_t");
+      for (size_t r = 0; r < group.members.size(); ++r) {
+        const std::vector<float>& xt = x[group.members[r].first];
+        std::copy(xt.begin(), xt.end(), x_rows.begin() + static_cast<std::ptrdiff_t>(r * cd));
+      }
+      std::vector<int64_t>& steps = group.run->int64_values("step");
+      std::fill(steps.begin(), steps.end(), timesteps[i]);
+      group.output = std::move(group.run->run().at(0));
+      const std::vector<int64_t> expected_shape{static_cast<int64_t>(group.members.size()), static_cast<int64_t>(c),
+                                                static_cast<int64_t>(d)};
+      if (group.output.shape != expected_shape) {
+        throw Error(package.denoiser().name() + ": output 'x0' has shape " + shape_text(group.output.shape) +
+                    ", expected " + shape_text(expected_shape));
+      }
+      for (size_t r = 0; r < group.members.size(); ++r) {
+        const auto [w, k] = group.members[r];
+        row_x0[w][k] = group.output.data.data() + r * cd;
+      }
     }
-    std::fill(step_rows.begin(), step_rows.end(), timesteps[i]);
-    const std::vector<Tensor> out = package.denoiser().run(inputs, {"x0"});
-    const Tensor& rows_x0 = out.at(0);
-    if (rows_x0.shape != expected_shape) {
-      throw Error(package.denoiser().name() + ": output 'x0' has shape " + shape_text(rows_x0.shape) + ", expected " +
-                  shape_text(expected_shape));
-    }
-    r = 0;
     for (size_t w = 0; w < windows.size(); ++w) {
       const WindowInput& in = *windows[w];
       std::vector<float>& result = x0[w];
       const std::vector<GuidanceRow>& brs = rows_of[w];
       // x0 = c_first * row_first + c_next * row_next + ... (float32, in order).
-      const float* first = rows_x0.data.data() + r * cd;
+      const float* first = row_x0[w][0];
       for (size_t j = 0; j < cd; ++j) result[j] = brs[0].weight * first[j];
       for (size_t b = 1; b < brs.size(); ++b) {
-        const float* row = rows_x0.data.data() + (r + b) * cd;
+        const float* row = row_x0[w][b];
         for (size_t j = 0; j < cd; ++j) {
           const float term = brs[b].weight * row[j];
           result[j] = result[j] + term;
         }
       }
-      r += brs.size();
       if (in.root_overwrite) {
         const bool last_step = i + 1 == timesteps.size();
         overwrite_root(in, layout, t, result, in.root_continuity && last_step);

@@ -143,10 +143,15 @@ struct WindowResult {
   Motion motion;                // the same frames as poses
 };
 
-// DDIM for a batch of windows, all rows of all windows in one denoiser call
-// per step (sampler.py sample_windows). noises[i] is window i's initial noise
-// [C, D]. Every window must use the same number of steps. Returns each
-// window's clean tokens x0 [C, D] (normalized, model frame).
+// DDIM for a batch of windows (sampler.py sample_windows). The history
+// graph computes every window's history keys and values once; then each step
+// makes at most two denoiser calls: the rows without constraints (D0,
+// D_text) of all windows with no future tokens, and the constraint rows with
+// them (the graph ignores future tokens in rows whose constraint_keep is 0,
+// so this matches one call with every row). Inputs that do not change between
+// steps are checked once. noises[i] is window i's initial noise [C, D]. Every
+// window must use the same number of steps. Returns each window's clean
+// tokens x0 [C, D] (normalized, model frame).
 std::vector<std::vector<float>> sample_windows(const ModelPackage& package,
                                                const std::vector<const WindowInput*>& windows,
                                                const std::vector<const std::vector<float>*>& noises,

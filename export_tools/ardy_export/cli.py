@@ -53,6 +53,27 @@ def _export(args: argparse.Namespace) -> int:
     return 0
 
 
+def _recover_checkpoint(args: argparse.Namespace) -> int:
+    from ardy_export.recover import RecoverError, recover_checkpoint
+
+    package, base = Path(args.package), Path(args.base)
+    for path, what in ((package / "model.json", "a model package"), (base, "a checkpoint")):
+        if not path.is_file():
+            print(f"ardy-export recover-checkpoint: {path} not found ({what})", file=sys.stderr)
+            return 1
+    try:
+        errors = recover_checkpoint(package, base, Path(args.out))
+    except RecoverError as error:
+        print(f"ardy-export recover-checkpoint: {error}", file=sys.stderr)
+        return 1
+    print(f"wrote {args.out}")
+    print(
+        "PyTorch vs the package's graphs, max abs error: "
+        + ", ".join(f"{k} {v:.2g}" for k, v in errors.items())
+    )
+    return 0
+
+
 def _export_test_package(args: argparse.Namespace) -> int:
     from ardy_export.goldens import write_test_package
 
@@ -88,7 +109,8 @@ def build_parser() -> argparse.ArgumentParser:
         "export",
         help="export a trained denoiser checkpoint as a model package (model.json + ONNX graphs)",
         description=(
-            "Write model.json, denoiser.onnx, decoder.onnx, encoder.onnx, text_encoder.onnx "
+            "Write model.json, history.onnx, denoiser.onnx, decoder.onnx, encoder.onnx, "
+            "text_encoder.onnx "
             "and vocab.txt; every graph is checked against PyTorch through ONNX Runtime."
         ),
     )
@@ -109,6 +131,24 @@ def build_parser() -> argparse.ArgumentParser:
         "(91 MB) (default: %(default)s)",
     )
     export.set_defaults(handler=_export)
+
+    recover = commands.add_parser(
+        "recover-checkpoint",
+        help="rebuild a slim denoiser checkpoint from a model package's own graphs",
+        description=(
+            "Read the denoiser weights out of a package's ONNX graphs (any format version) "
+            "into a slim checkpoint that 'ardy-export export' takes; the configs, tokenizer "
+            "and statistics come from a base checkpoint of the same architecture (e.g. the "
+            "one the package was fine-tuned from). Nothing is written unless the rebuilt "
+            "model reproduces the package's denoiser, decoder and encoder graphs."
+        ),
+    )
+    recover.add_argument("--package", required=True, help="model package folder")
+    recover.add_argument(
+        "--base", required=True, help="checkpoint of the same architecture and tokenizer"
+    )
+    recover.add_argument("--out", required=True, help="checkpoint file to write")
+    recover.set_defaults(handler=_recover_checkpoint)
 
     test_package = commands.add_parser(
         "export-test-package",

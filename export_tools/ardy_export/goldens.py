@@ -28,7 +28,11 @@ import numpy as np
 import onnxruntime as ort
 import torch
 
-from ardy_export.models.graphs import DENOISER_INPUTS, example_denoiser_inputs
+from ardy_export.models.graphs import (
+    DENOISER_INPUTS,
+    DENOISER_MODULE_INPUTS,
+    example_denoiser_inputs,
+)
 from ardy_export.package import GRAPH_FILES, export_package
 from ardy_export.sampling.constraints import (
     Constraint,
@@ -197,7 +201,7 @@ def _graph_goldens(
 
     with torch.no_grad():
         inputs = example_denoiser_inputs(bundle.denoiser, batch=3, history=5, future=3, seed=3)
-        for name, tensor in zip(DENOISER_INPUTS, inputs, strict=True):
+        for name, tensor in zip(DENOISER_MODULE_INPUTS, inputs, strict=True):
             out.add(f"denoiser/input/{name}", tensor)
         out.add("denoiser/output/x0", bundle.denoiser(*inputs))
         g = torch.Generator().manual_seed(4)
@@ -215,6 +219,8 @@ def _graph_goldens(
     # The ONNX graphs must give the same numbers (export_package checked it); record both so
     # the C++ test can tell a graph problem from a runtime one.
     feeds = {n: t.numpy() for n, t in zip(DENOISER_INPUTS, inputs, strict=True)}
+    history = {"history": feeds.pop("history_kv"), "history_mask": feeds["history_mask"]}
+    feeds["history_kv"] = session("history").run(None, history)[0]
     out.add("denoiser/onnx_output/x0", session("denoiser").run(None, feeds)[0])
     ids, mask = embedder.tokenize(PROMPTS)
     out.add("text/input/input_ids", ids)

@@ -1,6 +1,6 @@
 """The model package (design.md section 6): model.json plus the ONNX graphs.
 
-``export_package`` writes ``denoiser.onnx``, ``decoder.onnx``, ``encoder.onnx``,
+``export_package`` writes ``history.onnx``, ``denoiser.onnx``, ``decoder.onnx``, ``encoder.onnx``,
 ``text_encoder.onnx`` and ``vocab.txt`` and a ``model.json`` that carries everything the
 runtime needs (nothing about the model is hard-coded in C++), then runs every graph in ONNX
 Runtime against PyTorch for several history, future and token lengths and refuses the
@@ -32,6 +32,11 @@ from ardy_export.models.graphs import (
     DENOISER_OUTPUTS,
     ENCODER_INPUTS,
     ENCODER_OUTPUTS,
+    HISTORY_INPUTS,
+    HISTORY_OUTPUTS,
+    DenoiserGraph,
+    HistoryGraph,
+    cached_inputs,
     example_denoiser_inputs,
 )
 from ardy_export.onnx_files import save_clean
@@ -39,11 +44,14 @@ from ardy_export.sampling.sampler import ModelBundle
 from ardy_export.text.export import export_text_encoder
 
 FORMAT = "ardy-model-package"
-FORMAT_VERSION = 1
+# 2: the history's keys and values come from history.onnx, once per window (1: the denoiser
+# took the history tokens and recomputed them at every call).
+FORMAT_VERSION = 2
 OPSET = 18
 PARITY_ATOL = 1e-4
 MODEL_FILE = "model.json"
 GRAPH_FILES = {
+    "history": "history.onnx",
     "denoiser": "denoiser.onnx",
     "decoder": "decoder.onnx",
     "encoder": "encoder.onnx",
@@ -75,7 +83,7 @@ def _denoiser_axes() -> dict[str, dict[int, str]]:
         "step": batch,
         "text_embedding": batch,
         "text_keep": batch,
-        "history": {0: "batch", 1: "history"},
+        "history_kv": {0: "batch", 4: "history"},
         "history_mask": {0: "batch", 1: "history"},
         "window_goal": batch,
         "window_goal_mask": batch,
@@ -154,6 +162,19 @@ def _run_onnx(path: Path, feeds: dict[str, np.ndarray]) -> list[np.ndarray]:
     return session.run(None, feeds)
 
 
+def run_history_graph(package: Path, history: np.ndarray, history_mask: np.ndarray) -> np.ndarray:
+    """history.onnx of ``package`` as the runtime calls it: not at all without history (the
+    keys and values are then empty; see ``HistoryGraph``)."""
+    if history.shape[1] == 0:
+        shape = _io_signature(package / GRAPH_FILES["history"])["outputs"][0]["shape"]
+        sizes = [history.shape[0], *(int(n) for n in shape[1:4]), 0, int(shape[5])]
+        return np.zeros(sizes, dtype=np.float32)
+    (keys_values,) = _run_onnx(
+        package / GRAPH_FILES["history"], {"history": history, "history_mask": history_mask}
+    )
+    return keys_values
+
+
 def _check(name: str, expected: torch.Tensor, found: np.ndarray, where: str) -> float:
     error = float(np.max(np.abs(expected.numpy() - found))) if found.size else 0.0
     if tuple(found.shape) != tuple(expected.shape) or not error <= PARITY_ATOL:
@@ -176,13 +197,24 @@ def _tokenizer_examples(bundle: ModelBundle, tokens: int, seed: int) -> dict[str
 
 
 def export_graphs(bundle: ModelBundle, out_dir: Path) -> dict[str, float]:
-    """Writes the three model graphs and checks them; returns the worst error per graph."""
+    """Writes the model graphs and checks them; returns the worst error per graph."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    denoiser_path = out_dir / GRAPH_FILES["denoiser"]
+    example = example_denoiser_inputs(bundle.denoiser, batch=3, history=5, future=3)
+    history_axes = {0: "batch", 1: "history"}
     _export(
-        bundle.denoiser,
-        example_denoiser_inputs(bundle.denoiser, batch=3, history=5, future=3),
-        denoiser_path,
+        HistoryGraph(bundle.denoiser),
+        example[4:6],
+        out_dir / GRAPH_FILES["history"],
+        HISTORY_INPUTS,
+        HISTORY_OUTPUTS,
+        {"history": history_axes, "history_mask": history_axes},
+    )
+    with torch.no_grad():
+        cached_example = cached_inputs(bundle.denoiser, example)
+    _export(
+        DenoiserGraph(bundle.denoiser),
+        cached_example,
+        out_dir / GRAPH_FILES["denoiser"],
         DENOISER_INPUTS,
         DENOISER_OUTPUTS,
         _denoiser_axes(),
@@ -214,15 +246,25 @@ def export_graphs(bundle: ModelBundle, out_dir: Path) -> dict[str, float]:
 
 
 def check_graphs(bundle: ModelBundle, out_dir: Path) -> dict[str, float]:
-    """Every graph against PyTorch for several lengths; raises PackageError on a mismatch."""
-    worst = {"denoiser": 0.0, "decoder": 0.0, "encoder": 0.0}
+    """Every graph against PyTorch for several lengths; raises PackageError on a mismatch.
+
+    The denoiser is checked as the runtime calls it: history.onnx, then denoiser.onnx with
+    its keys and values, against the uncached ``Denoiser.forward`` (the reference); the
+    history graph alone against ``history_keys_values``."""
+    worst = {"history": 0.0, "denoiser": 0.0, "decoder": 0.0, "encoder": 0.0}
     with torch.no_grad():
         for seed, (history, future) in enumerate(PARITY_HISTORY_FUTURE):
             inputs = example_denoiser_inputs(bundle.denoiser, 3, history, future, seed=seed + 10)
-            expected = bundle.denoiser(*inputs)
-            feeds = {n: t.numpy() for n, t in zip(DENOISER_INPUTS, inputs, strict=True)}
-            (found,) = _run_onnx(out_dir / GRAPH_FILES["denoiser"], feeds)
             where = f"history {history}, future {future}"
+            expected = bundle.denoiser(*inputs)
+            expected_kv = bundle.denoiser.history_keys_values(inputs[4], inputs[5])
+            keys_values = run_history_graph(out_dir, inputs[4].numpy(), inputs[5].numpy())
+            worst["history"] = max(
+                worst["history"], _check("history", expected_kv, keys_values, where)
+            )
+            feeds = {n: t.numpy() for n, t in zip(DENOISER_INPUTS, inputs, strict=True)}
+            feeds["history_kv"] = keys_values
+            (found,) = _run_onnx(out_dir / GRAPH_FILES["denoiser"], feeds)
             worst["denoiser"] = max(worst["denoiser"], _check("denoiser", expected, found, where))
         for tokens in PARITY_TOKENS:
             tok = _tokenizer_examples(bundle, tokens, seed=tokens)
@@ -326,6 +368,11 @@ def model_json(
             "two_stage": bool(dc.two_stage),
             "history_self_only": bool(dc.history_self_only),
             "window_goal_input": dc.window_goal_input,
+            # Sizes for the bench's FLOP counts; the runtime reads the graphs' own shapes.
+            "width": int(dc.width),
+            "layers": int(dc.layers),
+            "heads": int(dc.heads),
+            "ff_mult": int(dc.ff_mult),
         },
         "tokenizer": {"root_input": tc.root_input},
         "text": text,

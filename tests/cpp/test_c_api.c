@@ -106,12 +106,12 @@ static void test_load_errors(void) {
 }
 
 static ardy_model* load_from_memory(void) {
-  static const char* names[] = {"model.json", "denoiser.onnx", "decoder.onnx", "encoder.onnx",
-                                "text_encoder.onnx", "vocab.txt"};
-  ardy_file_buffer files[6];
-  void* data[6];
+  static const char* names[] = {"model.json",   "history.onnx",      "denoiser.onnx", "decoder.onnx",
+                                "encoder.onnx", "text_encoder.onnx", "vocab.txt"};
+  ardy_file_buffer files[7];
+  void* data[7];
   char path[1024];
-  for (int i = 0; i < 6; ++i) {
+  for (int i = 0; i < 7; ++i) {
     snprintf(path, sizeof path, "%s/%s", TINY, names[i]);
     data[i] = read_file(path, &files[i].size);
     CHECK(data[i] != NULL);
@@ -121,8 +121,8 @@ static ardy_model* load_from_memory(void) {
   ardy_model_params params = ardy_model_default_params();
   params.intra_op_threads = 1;
   ardy_model* model = NULL;
-  CHECK_STATUS(ardy_model_load_from_memory(files, 6, "tiny (memory)", &params, &model), ARDY_OK);
-  for (int i = 0; i < 6; ++i) free(data[i]); /* the bytes need not outlive the call */
+  CHECK_STATUS(ardy_model_load_from_memory(files, 7, "tiny (memory)", &params, &model), ARDY_OK);
+  for (int i = 0; i < 7; ++i) free(data[i]); /* the bytes need not outlive the call */
   return model;
 }
 

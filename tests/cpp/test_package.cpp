@@ -29,7 +29,7 @@ using nlohmann::json;
 
 namespace {
 
-const char* const kFiles[] = {"model.json",   "denoiser.onnx",     "decoder.onnx",
+const char* const kFiles[] = {"model.json",   "history.onnx",      "denoiser.onnx", "decoder.onnx",
                               "encoder.onnx", "text_encoder.onnx", "vocab.txt"};
 
 const PackageFiles& tiny_files() {
@@ -50,6 +50,10 @@ ardy::PackageOptions one_thread() {
   return options;
 }
 
+size_t tiny_heads() {
+  return json::parse(tiny_files().at("model.json"))["denoiser"]["heads"].get<size_t>();
+}
+
 ModelPackage load(const PackageFiles& files) { return ModelPackage::from_memory(files, "tiny", one_thread()); }
 
 // The tiny package with model.json edited by `edit`.
@@ -67,11 +71,7 @@ std::string load_error(const std::function<void(json&)>& edit) {
 }
 
 std::vector<float> run_golden_denoiser(const ModelPackage& package) {
-  std::vector<std::pair<std::string, ardy::Tensor>> inputs;
-  for (const ardy::TensorInfo& info : package.denoiser().inputs()) {
-    inputs.emplace_back(info.name, ardy_test::goldens().tensor("denoiser/input/" + info.name));
-  }
-  return package.denoiser().run(inputs, {"x0"}).at(0).data;
+  return package.denoiser().run(ardy_test::golden_denoiser_inputs(package), {"x0"}).at(0).data;
 }
 
 }  // namespace
@@ -109,6 +109,13 @@ TEST_CASE("the tiny package loads from its folder with every value from model.js
   CHECK(package.text_settings().tokenizer.max_tokens == 128);
   CHECK(package.graph_spec("denoiser").inputs.size() == 12);
   CHECK(package.denoiser().find_input("x_t") != nullptr);
+  CHECK(package.denoiser().find_input("history_kv") != nullptr);
+  CHECK(package.history().find_output("history_kv") != nullptr);
+  const ardy::DenoiserSizes& sizes = package.denoiser_sizes();
+  CHECK(sizes.two_stage);
+  CHECK(sizes.width % sizes.heads == 0);
+  CHECK(package.history().outputs()[0].shape ==
+        std::vector<int64_t>{-1, int64_t(2 * sizes.layers), 2, int64_t(sizes.heads), -1, int64_t(sizes.head_dim())});
   CHECK_THAT(error_message([&] { package.graph_spec("planner"); }), ContainsSubstring("no graph 'planner'"));
 }
 
@@ -143,7 +150,7 @@ TEST_CASE("a package read through a file reader loads only what model.json names
   CHECK(run_golden_denoiser(package) == run_golden_denoiser(from_folder));
   CHECK(asked.front() == "model.json");
   CHECK(std::find(asked.begin(), asked.end(), "goldens.bin") == asked.end());
-  CHECK(asked.size() == 6);  // model.json, four graphs, vocab.txt
+  CHECK(asked.size() == 7);  // model.json, five graphs, vocab.txt
   // A reader that fails names the file; nothing is left half-loaded.
   const ardy::PackageFileReader broken = [&](const std::string& file) -> std::string {
     if (file == "decoder.onnx") throw ardy::Error("res://tiny/decoder.onnx: file not found");
@@ -199,8 +206,18 @@ TEST_CASE("a swapped graph is a signature mismatch naming the graph and the inpu
 }
 
 TEST_CASE("model.json fields are validated with the field, the expected and the found value", "[package][errors]") {
-  CHECK_THAT(load_error([](json& d) { d["format_version"] = 2; }),
-             ContainsSubstring("model.json: format_version is 2, expected 1"));
+  CHECK_THAT(load_error([](json& d) { d["format_version"] = 3; }),
+             ContainsSubstring("model.json: format_version is 3, expected 2"));
+  // A package from before the history graph says how to re-export it.
+  CHECK_THAT(load_error([](json& d) { d["format_version"] = 1; }),
+             ContainsSubstring("format_version is 1, expected 2") &&
+                 ContainsSubstring("'ardy-export recover-checkpoint' then 'ardy-export export'"));
+  CHECK_THAT(load_error([](json& d) { d["denoiser"]["heads"] = 3; }),
+             ContainsSubstring("denoiser.heads is 3, expected a divisor of denoiser.width"));
+  CHECK_THAT(load_error([](json& d) { d["denoiser"]["history_self_only"] = false; }),
+             ContainsSubstring("denoiser.history_self_only is false, expected true"));
+  CHECK_THAT(load_error([](json& d) { d["denoiser"].erase("layers"); }),
+             ContainsSubstring("missing field denoiser.layers"));
   CHECK_THAT(load_error([](json& d) { d["format"] = "something-else"; }),
              ContainsSubstring("model.json: format is 'something-else', expected 'ardy-model-package'"));
   CHECK_THAT(load_error([](json& d) { d["tokens"]["token_dim"] = 30; }),
@@ -257,6 +274,13 @@ TEST_CASE("model.json graph signatures are checked against the contract and the 
   CHECK_THAT(load_error([](json& d) { d["graphs"]["denoiser"]["inputs"][5]["shape"][1] = "future"; }),
              ContainsSubstring("'history_mask' names axis 1 'future', but another input names the same axis (H) "
                                "'history'"));
+  // The history graph's keys and values have the denoiser's sizes.
+  CHECK_THAT(load_error([](json& d) { d["graphs"]["history"]["outputs"][0]["shape"][3] = 4; }),
+             ContainsSubstring("graphs.history.outputs 'history_kv'") &&
+                 ContainsSubstring("(axis 3 must be " + std::to_string(tiny_heads()) + ")"));
+  CHECK_THAT(load_error([](json& d) { d["denoiser"]["layers"] = 7; }),
+             ContainsSubstring("graphs.history.outputs 'history_kv'") &&
+                 ContainsSubstring("(stages * denoiser.layers)"));
   CHECK_THAT(load_error([](json& d) { d["graphs"]["decoder"]["outputs"][0]["dtype"] = "float64"; }),
              ContainsSubstring("graphs.decoder.outputs 'body' is float64"));
   // model.json agrees with the contract but not with the graph file.

@@ -115,10 +115,9 @@ double max_abs_diff(const std::vector<float>& a, const std::vector<float>& b) {
 
 TEST_CASE("denoiser graph matches the golden outputs", "[parity][graphs]") {
   const auto package = tiny_package();
-  std::vector<std::pair<std::string, ardy::Tensor>> inputs;
-  for (const ardy::TensorInfo& info : package->denoiser().inputs()) {
-    inputs.emplace_back(info.name, goldens().tensor("denoiser/input/" + info.name));
-  }
+  // The history through history.onnx, then the denoiser with its keys and
+  // values, against the uncached PyTorch forward of the golden inputs.
+  const std::vector<std::pair<std::string, ardy::Tensor>> inputs = ardy_test::golden_denoiser_inputs(*package);
   // The golden inputs have history and future goals (H = 5, F = 3).
   REQUIRE(goldens().shape("denoiser/input/history")[1] == 5);
   REQUIRE(goldens().shape("denoiser/input/future_goal")[1] == 3);

@@ -7,7 +7,12 @@ import torch
 
 from ardy_export.models import layout as L
 from ardy_export.models.denoiser import Denoiser, DenoiserConfig, split_goal
-from ardy_export.models.graphs import DENOISER_INPUTS, example_denoiser_inputs
+from ardy_export.models.graphs import (
+    DENOISER_INPUTS,
+    DENOISER_MODULE_INPUTS,
+    cached_inputs,
+    example_denoiser_inputs,
+)
 
 torch.set_num_threads(1)
 H_MAX, F_MAX = 6, 4
@@ -45,7 +50,46 @@ def test_input_names_match_forward() -> None:
     import inspect
 
     params = list(inspect.signature(Denoiser.forward).parameters)[1:]
-    assert tuple(params) == DENOISER_INPUTS
+    assert tuple(params) == DENOISER_MODULE_INPUTS
+    cached = list(inspect.signature(Denoiser.forward_cached).parameters)[1:]
+    assert tuple(cached) == DENOISER_INPUTS
+
+
+@pytest.mark.parametrize("two_stage", [True, False])
+@pytest.mark.parametrize(("history", "future"), [(0, 0), (1, 0), (3, 2), (H_MAX, F_MAX)])
+def test_cached_history_gives_the_uncached_result(
+    two_stage: bool, history: int, future: int
+) -> None:
+    """forward_cached with history_keys_values is forward (the exported graphs' split)."""
+    den = _denoiser(two_stage)
+    inputs = example_denoiser_inputs(den, batch=3, history=history, future=future, seed=history)
+    with torch.no_grad():
+        expected = den(*inputs)
+        cached = cached_inputs(den, inputs)
+        found = den.forward_cached(*cached)
+    keys_values = cached[DENOISER_INPUTS.index("history_kv")]
+    cfg = den.config
+    stages = 2 if two_stage else 1
+    head_dim = cfg.width // cfg.heads
+    assert keys_values.shape == (3, stages * cfg.layers, 2, cfg.heads, history, head_dim)
+    assert torch.allclose(found, expected, atol=1e-5, rtol=0.0)
+    # The keys and values depend on the history only: another step, text and goals give the
+    # same ones, and they change when the history changes.
+    other = list(example_denoiser_inputs(den, batch=3, history=history, future=future, seed=99))
+    other[4], other[5] = inputs[4], inputs[5]
+    with torch.no_grad():
+        assert torch.equal(cached_inputs(den, tuple(other))[4], keys_values)
+    if history:
+        with torch.no_grad():
+            moved = den.history_keys_values(inputs[4] + 0.5, inputs[5])
+        assert not torch.allclose(moved, keys_values)
+
+
+def test_cached_history_needs_history_self_only() -> None:
+    den = _denoiser(history_self_only=False)
+    inputs = example_denoiser_inputs(den, batch=1, history=2, future=0)
+    with pytest.raises(ValueError, match="history_self_only"):
+        den.history_keys_values(inputs[4], inputs[5])
 
 
 @pytest.mark.parametrize("two_stage", [True, False])

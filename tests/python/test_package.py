@@ -18,13 +18,19 @@ from ardy_export.goldens import (
     golden_constraints,
     write_test_package,
 )
-from ardy_export.models.graphs import DECODER_INPUTS, DENOISER_INPUTS
+from ardy_export.models.graphs import (
+    DECODER_INPUTS,
+    DENOISER_INPUTS,
+    DENOISER_MODULE_INPUTS,
+    HISTORY_INPUTS,
+)
 from ardy_export.package import (
     GRAPH_FILES,
     PARITY_ATOL,
     PARITY_HISTORY_FUTURE,
     PackageError,
     check_graphs,
+    run_history_graph,
 )
 from ardy_export.sampling.sampler import PromptEvent, RolloutConfig, rollout
 from ardy_export.sampling.tiny import random_bundle
@@ -64,7 +70,7 @@ def test_committed_package_and_goldens_are_what_the_exporter_writes(fresh_packag
 
 def test_model_json_describes_the_graphs_and_the_model() -> None:
     model = json.loads((COMMITTED / "model.json").read_text())
-    assert model["format"] == "ardy-model-package" and model["format_version"] == 1
+    assert model["format"] == "ardy-model-package" and model["format_version"] == 2
     assert model["fps"] == 20.0 and model["features"]["size"] == 258
     assert model["features"]["slices"]["rotation_6d"] == [5, 131]
     tokens = model["tokens"]
@@ -79,8 +85,16 @@ def test_model_json_describes_the_graphs_and_the_model() -> None:
     assert [i["name"] for i in denoiser["inputs"]] == list(DENOISER_INPUTS)
     x_t = denoiser["inputs"][0]
     assert x_t["shape"] == ["batch", tokens["window"], tokens["token_dim"]]
-    history = next(i for i in denoiser["inputs"] if i["name"] == "history")
-    assert history["shape"] == ["batch", "history", tokens["token_dim"]]
+    history = model["graphs"]["history"]
+    assert [i["name"] for i in history["inputs"]] == list(HISTORY_INPUTS)
+    assert history["inputs"][0]["shape"] == ["batch", "history", tokens["token_dim"]]
+    sizes = model["denoiser"]
+    stages = 2 if sizes["two_stage"] else 1
+    head_dim = sizes["width"] // sizes["heads"]
+    keys_values = ["batch", stages * sizes["layers"], 2, sizes["heads"], "history", head_dim]
+    assert history["outputs"][0]["shape"] == keys_values
+    cached = next(i for i in denoiser["inputs"] if i["name"] == "history_kv")
+    assert cached["shape"] == keys_values
     assert [i["name"] for i in model["graphs"]["decoder"]["inputs"]] == list(DECODER_INPUTS)
     assert model["graphs"]["text_encoder"]["outputs"][0]["shape"] == ["batch", TINY_TEXT_DIM]
     for key, file in GRAPH_FILES.items():
@@ -118,12 +132,28 @@ class OnnxGraph:
         return torch.from_numpy(self.session.run(None, feeds)[0])
 
 
+class OnnxDenoiser:
+    """history.onnx then denoiser.onnx, called like ``Denoiser.forward`` (the history as
+    tokens), as the runtime calls them."""
+
+    def __init__(self, package: Path, config: object) -> None:
+        self.package = package
+        self.denoiser = OnnxGraph(package / "denoiser.onnx", DENOISER_INPUTS)
+        self.config = config
+
+    def __call__(self, *tensors: torch.Tensor) -> torch.Tensor:
+        at = DENOISER_MODULE_INPUTS.index("history")
+        history, mask = tensors[at].numpy(), tensors[at + 1].numpy()
+        keys_values = torch.from_numpy(run_history_graph(self.package, history, mask))
+        return self.denoiser(*tensors[:at], keys_values, *tensors[at + 1 :])
+
+
 def test_the_package_alone_reproduces_the_golden_rollout() -> None:
     """The runtime's path: ONNX graphs + the documented procedure give the golden motion."""
     index, tensors = load_goldens(COMMITTED)
     info = index["rollout"]
     bundle = random_bundle(seed=0, text_dim=TINY_TEXT_DIM)
-    bundle.denoiser = OnnxGraph(COMMITTED / "denoiser.onnx", DENOISER_INPUTS, bundle.config)
+    bundle.denoiser = OnnxDenoiser(COMMITTED, bundle.config)
     bundle.decoder_graph = OnnxGraph(COMMITTED / "decoder.onnx", DECODER_INPUTS)
     embedder = OnnxTextEmbedder(COMMITTED, 128)
     prompts = [PromptEvent(p["frame"], p["text"]) for p in info["prompts"]]
@@ -148,7 +178,7 @@ def test_the_package_alone_reproduces_the_golden_rollout() -> None:
 
 def test_goldens_cover_every_graph_and_the_rollout_windows() -> None:
     index, tensors = load_goldens(COMMITTED)
-    for name in DENOISER_INPUTS:
+    for name in DENOISER_MODULE_INPUTS:
         assert f"denoiser/input/{name}" in tensors
     for name in ("denoiser/output/x0", "decoder/output/body", "encoder/output/latent"):
         assert np.isfinite(tensors[name]).all()

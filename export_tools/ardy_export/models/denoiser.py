@@ -24,7 +24,8 @@ position in tokens relative to the window start (history -H..-1, window 0..C-1, 
 C..C+F-1). Keys of padded history tokens and of future tokens with future_mask = 0 are
 masked out of attention. With ``history_self_only`` history tokens attend only to history
 tokens, so their keys and values do not depend on the step, the text, the window or the
-goals (they could be computed once per window and cached).
+goals: ``history_keys_values`` computes them once per window and ``forward_cached`` takes
+them in place of the history (the exported graphs, docs/model_contract.md).
 
 Window token input: the noisy root with the in-window root goals written over it
 (``r <- (1 - v_root) r + v_root g_root``), the noisy latent body, the goals and the full mask,
@@ -40,13 +41,19 @@ token. No dropout anywhere.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from typing import Any
 
 import torch
 from torch import Tensor, nn
 
-from ardy_export.models.layers import TransformerStack, attention_bias, sinusoidal_encoding
+from ardy_export.models.layers import (
+    MASKED,
+    TransformerStack,
+    attention_bias,
+    sinusoidal_encoding,
+)
 
 
 @dataclass
@@ -132,6 +139,36 @@ class _Stage(nn.Module):
         self.head = nn.Linear(w, out_dim)
         nn.init.normal_(self.null_text, std=0.02)
 
+    def _embed(
+        self,
+        window_in: Tensor,
+        step: Tensor,
+        text_embedding: Tensor,
+        text_keep: Tensor,
+        history: Tensor | None,
+        future_in: Tensor,
+    ) -> Tensor:
+        """Embedded tokens [step, text, history, window, future] (no history when None)."""
+        c_tokens = window_in.shape[1]
+        h_tokens = 0 if history is None else history.shape[1]
+        f_tokens = future_in.shape[1]
+        device = window_in.device
+        keep = text_keep.to(window_in.dtype)[:, None]
+        text = keep * self.text_proj(text_embedding) + (1.0 - keep) * self.null_text
+        step_tok = self.step_embedding(step)
+        times = torch.cat(
+            (
+                torch.arange(c_tokens, device=device),
+                torch.arange(f_tokens, device=device) + c_tokens,
+            )
+        )
+        parts = [self.window_proj(window_in), self.future_proj(future_in)]
+        if history is not None:
+            times = torch.cat((torch.arange(h_tokens, device=device) - h_tokens, times))
+            parts.insert(0, self.history_proj(history))
+        motion = torch.cat(parts, dim=1) + sinusoidal_encoding(times, self.config.width)
+        return torch.cat((step_tok.unsqueeze(1), text.unsqueeze(1), motion), dim=1)
+
     def forward(
         self,
         window_in: Tensor,
@@ -145,25 +182,8 @@ class _Stage(nn.Module):
     ) -> Tensor:
         batch, c_tokens, _ = window_in.shape
         h_tokens = history.shape[1]
-        f_tokens = future_in.shape[1]
         device = window_in.device
-        keep = text_keep.to(window_in.dtype)[:, None]
-        text = keep * self.text_proj(text_embedding) + (1.0 - keep) * self.null_text
-        step_tok = self.step_embedding(step)
-        times = torch.cat(
-            (
-                torch.arange(h_tokens, device=device) - h_tokens,
-                torch.arange(c_tokens, device=device),
-                torch.arange(f_tokens, device=device) + c_tokens,
-            )
-        )
-        pos = sinusoidal_encoding(times, self.config.width)
-        motion = torch.cat(
-            (self.history_proj(history), self.window_proj(window_in), self.future_proj(future_in)),
-            dim=1,
-        )
-        x = torch.cat((step_tok.unsqueeze(1), text.unsqueeze(1), motion + pos), dim=1)
-
+        x = self._embed(window_in, step, text_embedding, text_keep, history, future_in)
         ones2 = torch.ones(batch, 2, dtype=torch.bool, device=device)
         ones_c = torch.ones(batch, c_tokens, dtype=torch.bool, device=device)
         key_valid = torch.cat((ones2, history_mask > 0.5, ones_c, future_attend > 0.5), dim=1)
@@ -178,6 +198,68 @@ class _Stage(nn.Module):
         window = y[:, 2 + h_tokens : 2 + h_tokens + c_tokens]
         return self.head(window)
 
+    def history_keys_values(self, history: Tensor, history_mask: Tensor) -> Tensor:
+        """Keys and values of the history tokens in every layer, [B, layers, 2, heads, H,
+        head_dim] (2: keys, values). With ``history_self_only`` they are what ``forward``
+        computes for the history, whatever the step, text, window and goals."""
+        self._require_history_self_only()
+        batch, h_tokens, _ = history.shape
+        times = torch.arange(h_tokens, device=history.device) - h_tokens
+        x = self.history_proj(history) + sinusoidal_encoding(times, self.config.width)
+        allowed = (history_mask > 0.5)[:, None, :].expand(batch, h_tokens, h_tokens)
+        layers = self.transformer.keys_values(x, attention_bias(allowed))
+        return torch.stack([torch.stack(keys_values, dim=1) for keys_values in layers], dim=1)
+
+    def forward_cached(
+        self,
+        window_in: Tensor,
+        step: Tensor,
+        text_embedding: Tensor,
+        text_keep: Tensor,
+        history_keys_values: Tensor,
+        history_mask: Tensor,
+        future_in: Tensor,
+        future_attend: Tensor,
+    ) -> Tensor:
+        """``forward`` with the history given as ``history_keys_values``: only the step, text,
+        window and future tokens are computed; their keys follow the history's."""
+        self._require_history_self_only()
+        batch, c_tokens, _ = window_in.shape
+        h_tokens = history_mask.shape[1]
+        device = window_in.device
+        x = self._embed(window_in, step, text_embedding, text_keep, None, future_in)
+        size = x.shape[1]
+        ones = torch.ones(batch, 2 + c_tokens, dtype=torch.bool, device=device)
+        key_valid = torch.cat((history_mask > 0.5, ones, future_attend > 0.5), dim=1)
+        # Every token may attend to itself (attention_bias's diagonal): its key sits after
+        # the H history keys.
+        own = torch.cat(
+            (
+                torch.zeros(size, h_tokens, dtype=torch.bool, device=device),
+                torch.eye(size, dtype=torch.bool, device=device),
+            ),
+            dim=1,
+        )
+        allowed = key_valid[:, None, :] | own[None, :, :]
+        bias = torch.where(
+            allowed,
+            torch.zeros((), dtype=torch.float32, device=device),
+            torch.full((), MASKED, dtype=torch.float32, device=device),
+        ).unsqueeze(1)
+        prefixes = [
+            (history_keys_values[:, layer, 0], history_keys_values[:, layer, 1])
+            for layer in range(self.config.layers)
+        ]
+        y = self.transformer(x, bias, prefixes)
+        return self.head(y[:, 2 : 2 + c_tokens])
+
+    def _require_history_self_only(self) -> None:
+        if not self.config.history_self_only:
+            raise ValueError(
+                "cached history keys and values need history_self_only = true (with it off, "
+                "history tokens attend to the step, text and window, so they change every call)"
+            )
+
 
 class Denoiser(nn.Module):
     def __init__(self, config: DenoiserConfig) -> None:
@@ -188,6 +270,10 @@ class Denoiser(nn.Module):
             self.body_stage = _Stage(config, config.latent_dim)
         else:
             self.joint_stage = _Stage(config, config.token_dim)
+
+    @property
+    def stages(self) -> list[_Stage]:
+        return [self.root_stage, self.body_stage] if self.config.two_stage else [self.joint_stage]
 
     def forward(
         self,
@@ -204,6 +290,91 @@ class Denoiser(nn.Module):
         future_mask: Tensor,
         constraint_keep: Tensor,
     ) -> Tensor:
+        def run(index: int, window_in: Tensor, future_in: Tensor, future_attend: Tensor) -> Tensor:
+            return self.stages[index](
+                window_in,
+                step,
+                text_embedding,
+                text_keep,
+                history,
+                history_mask,
+                future_in,
+                future_attend,
+            )
+
+        return self._denoise(
+            run,
+            x_t,
+            window_goal,
+            window_goal_mask,
+            future_goal,
+            future_goal_mask,
+            future_mask,
+            constraint_keep,
+        )
+
+    def history_keys_values(self, history: Tensor, history_mask: Tensor) -> Tensor:
+        """Keys and values of the history in every layer of every stage, [B, stages * layers,
+        2, heads, H, head_dim] (root stage first): computed once per window, they serve
+        every step and guidance row (``forward_cached``)."""
+        per_stage = [stage.history_keys_values(history, history_mask) for stage in self.stages]
+        return torch.cat(per_stage, dim=1)
+
+    def forward_cached(
+        self,
+        x_t: Tensor,
+        step: Tensor,
+        text_embedding: Tensor,
+        text_keep: Tensor,
+        history_kv: Tensor,
+        history_mask: Tensor,
+        window_goal: Tensor,
+        window_goal_mask: Tensor,
+        future_goal: Tensor,
+        future_goal_mask: Tensor,
+        future_mask: Tensor,
+        constraint_keep: Tensor,
+    ) -> Tensor:
+        """``forward`` with ``history_kv = history_keys_values(history, history_mask)`` in
+        place of the history: the same x0 within float rounding, without recomputing it."""
+        layers = self.config.layers
+
+        def run(index: int, window_in: Tensor, future_in: Tensor, future_attend: Tensor) -> Tensor:
+            return self.stages[index].forward_cached(
+                window_in,
+                step,
+                text_embedding,
+                text_keep,
+                history_kv[:, index * layers : (index + 1) * layers],
+                history_mask,
+                future_in,
+                future_attend,
+            )
+
+        return self._denoise(
+            run,
+            x_t,
+            window_goal,
+            window_goal_mask,
+            future_goal,
+            future_goal_mask,
+            future_mask,
+            constraint_keep,
+        )
+
+    def _denoise(
+        self,
+        run: Callable[[int, Tensor, Tensor, Tensor], Tensor],
+        x_t: Tensor,
+        window_goal: Tensor,
+        window_goal_mask: Tensor,
+        future_goal: Tensor,
+        future_goal_mask: Tensor,
+        future_mask: Tensor,
+        constraint_keep: Tensor,
+    ) -> Tensor:
+        """The goal handling and the stages around ``run(stage_index, window_in, future_in,
+        future_attend)``, which calls one stage's transformer (``stages`` order)."""
         c = self.config
         keep = constraint_keep.to(x_t.dtype)
         k3 = keep[:, None, None]
@@ -225,10 +396,9 @@ class Denoiser(nn.Module):
         def window_input(root: Tensor) -> Tensor:
             return torch.cat((root, noisy_body, goal_in, window_mask), dim=-1)
 
-        common = (step, text_embedding, text_keep, history, history_mask, future_in, future_attend)
         if not c.two_stage:
-            return self.joint_stage(window_input(noisy_root), *common)
-        root_hat = self.root_stage(window_input(noisy_root), *common)
+            return run(0, window_input(noisy_root), future_in, future_attend)
+        root_hat = run(0, window_input(noisy_root), future_in, future_attend)
         root_in = overwrite_root(root_hat.detach(), goal_root, mask_root)
-        body_hat = self.body_stage(window_input(root_in), *common)
+        body_hat = run(1, window_input(root_in), future_in, future_attend)
         return torch.cat((root_hat, body_hat), dim=-1)

@@ -1,4 +1,4 @@
-"""The three model graphs exactly as the runtime calls them (docs/model_contract.md).
+"""The model graphs exactly as the runtime calls them (docs/model_contract.md).
 
 Each wrapper is one ``nn.Module`` whose ``forward`` takes and returns plain float32 tensors
 (int64 for the diffusion step), with every normalization the runtime should not have to know
@@ -11,16 +11,21 @@ from __future__ import annotations
 import torch
 from torch import Tensor, nn
 
-from ardy_export.models.denoiser import Denoiser
+from ardy_export.models.denoiser import Denoiser, DenoiserConfig
 from ardy_export.models.tokenizer import BodyTokenizer
 
 # Input and output names of the graphs, in order (the ONNX export and model.json use these).
+# The denoiser graph takes the history as the keys and values the history graph computed
+# once per window (``Denoiser.forward_cached``); ``DENOISER_MODULE_INPUTS`` are the arguments
+# of ``Denoiser.forward``, the uncached reference the training and the reference sampler run.
+HISTORY_INPUTS: tuple[str, ...] = ("history", "history_mask")
+HISTORY_OUTPUTS: tuple[str, ...] = ("history_kv",)
 DENOISER_INPUTS: tuple[str, ...] = (
     "x_t",
     "step",
     "text_embedding",
     "text_keep",
-    "history",
+    "history_kv",
     "history_mask",
     "window_goal",
     "window_goal_mask",
@@ -30,6 +35,9 @@ DENOISER_INPUTS: tuple[str, ...] = (
     "constraint_keep",
 )
 DENOISER_OUTPUTS: tuple[str, ...] = ("x0",)
+DENOISER_MODULE_INPUTS: tuple[str, ...] = tuple(
+    "history" if name == "history_kv" else name for name in DENOISER_INPUTS
+)
 DECODER_INPUTS: tuple[str, ...] = ("tokens", "prev_root", "prev_root_valid")
 DECODER_OUTPUTS: tuple[str, ...] = ("body",)
 ENCODER_INPUTS: tuple[str, ...] = ("body",)
@@ -68,16 +76,79 @@ class DecoderGraph(nn.Module):
         return self.tokenizer.decode(codes, root, prev_root, prev_root_valid)
 
 
-def denoiser_graph(denoiser: Denoiser) -> nn.Module:
-    """The denoiser's forward already is the graph (inputs in DENOISER_INPUTS order)."""
-    return denoiser
+class HistoryGraph(nn.Module):
+    """history [B, H, D], history_mask [B, H] -> history_kv [B, stages * layers, 2, heads, H,
+    head_dim]: every layer's keys and values of the history (once per window). Called with
+    H >= 1 only (ONNX Reshape reads a 0 in a shape as "keep this axis"); without history the
+    keys and values are the empty tensor of ``history_kv_shape(config, B, 0)``."""
+
+    def __init__(self, denoiser: Denoiser) -> None:
+        super().__init__()
+        self.denoiser = denoiser
+
+    def forward(self, history: Tensor, history_mask: Tensor) -> Tensor:
+        return self.denoiser.history_keys_values(history, history_mask)
+
+
+class DenoiserGraph(nn.Module):
+    """The denoiser with the history as ``history_kv`` (inputs in DENOISER_INPUTS order)."""
+
+    def __init__(self, denoiser: Denoiser) -> None:
+        super().__init__()
+        self.denoiser = denoiser
+
+    def forward(
+        self,
+        x_t: Tensor,
+        step: Tensor,
+        text_embedding: Tensor,
+        text_keep: Tensor,
+        history_kv: Tensor,
+        history_mask: Tensor,
+        window_goal: Tensor,
+        window_goal_mask: Tensor,
+        future_goal: Tensor,
+        future_goal_mask: Tensor,
+        future_mask: Tensor,
+        constraint_keep: Tensor,
+    ) -> Tensor:
+        return self.denoiser.forward_cached(
+            x_t,
+            step,
+            text_embedding,
+            text_keep,
+            history_kv,
+            history_mask,
+            window_goal,
+            window_goal_mask,
+            future_goal,
+            future_goal_mask,
+            future_mask,
+            constraint_keep,
+        )
+
+
+def history_kv_shape(config: DenoiserConfig, batch: int, history: int) -> tuple[int, ...]:
+    """Shape of ``history_kv``: [B, stages * layers, 2, heads, H, head_dim]."""
+    stages = 2 if config.two_stage else 1
+    head_dim = config.width // config.heads
+    return (batch, stages * config.layers, 2, config.heads, history, head_dim)
+
+
+def cached_inputs(denoiser: Denoiser, module_inputs: tuple[Tensor, ...]) -> tuple[Tensor, ...]:
+    """DENOISER_MODULE_INPUTS values -> DENOISER_INPUTS values (the history replaced by its
+    keys and values)."""
+    at = DENOISER_MODULE_INPUTS.index("history")
+    history, history_mask = module_inputs[at], module_inputs[at + 1]
+    keys_values = denoiser.history_keys_values(history, history_mask)
+    return (*module_inputs[:at], keys_values, *module_inputs[at + 1 :])
 
 
 @torch.no_grad()
 def example_denoiser_inputs(
     denoiser: Denoiser, batch: int, history: int, future: int, seed: int = 0
 ) -> tuple[Tensor, ...]:
-    """Random inputs in DENOISER_INPUTS order (for export and shape tests)."""
+    """Random inputs in DENOISER_MODULE_INPUTS order (for export and shape tests)."""
     c = denoiser.config
     g = torch.Generator().manual_seed(seed)
     d, gd = c.token_dim, c.goal_dim

@@ -3,12 +3,14 @@
 Plain pre-norm encoder layers written out (fused QKV projection, scaled dot-product
 attention, GELU feed-forward, no dropout) rather than ``nn.TransformerEncoder``, so that
 the masks are explicit additive biases, the ONNX export sees ordinary ops, and keys and
-values of a block of tokens could later be cached.
+values of a block of tokens can be cached (``TransformerStack.keys_values`` and the
+``prefixes`` of its ``forward``).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import torch
 import torch.nn.functional as F
@@ -48,6 +50,11 @@ def attention_bias(allowed: Tensor) -> Tensor:
     return torch.where(allowed, zero, masked).unsqueeze(1)
 
 
+# Keys and values of one layer for a block of tokens computed elsewhere (the cached
+# history): two tensors [B, heads, S, head_dim], put before the keys of the call's own tokens.
+KeysValues = tuple[Tensor, Tensor]
+
+
 class SelfAttention(nn.Module):
     def __init__(self, width: int, heads: int) -> None:
         super().__init__()
@@ -58,12 +65,25 @@ class SelfAttention(nn.Module):
         self.qkv = nn.Linear(width, 3 * width)
         self.out = nn.Linear(width, width)
 
-    def forward(self, x: Tensor, bias: Tensor) -> Tensor:
-        batch, size, width = x.shape
+    def project(self, x: Tensor) -> tuple[Tensor, Tensor, Tensor]:
+        """x [B, S, W] -> q, k, v, each [B, heads, S, head_dim]."""
+        batch, size, _ = x.shape
         qkv = self.qkv(x).reshape(batch, size, 3, self.heads, self.head_dim)
         q, k, v = qkv.permute(2, 0, 3, 1, 4).unbind(0)
+        return q, k, v
+
+    def attend(self, q: Tensor, k: Tensor, v: Tensor, bias: Tensor) -> Tensor:
+        batch, _, size, _ = q.shape
         y = F.scaled_dot_product_attention(q, k, v, attn_mask=bias)
-        return self.out(y.transpose(1, 2).reshape(batch, size, width))
+        return self.out(y.transpose(1, 2).reshape(batch, size, self.heads * self.head_dim))
+
+    def forward(self, x: Tensor, bias: Tensor, prefix: KeysValues | None = None) -> Tensor:
+        """``prefix``: keys and values put before the tokens' own (``bias`` covers both)."""
+        q, k, v = self.project(x)
+        if prefix is not None:
+            k = torch.cat((prefix[0], k), dim=2)
+            v = torch.cat((prefix[1], v), dim=2)
+        return self.attend(q, k, v, bias)
 
 
 class EncoderLayer(nn.Module):
@@ -76,9 +96,15 @@ class EncoderLayer(nn.Module):
         self.norm2 = nn.LayerNorm(width)
         self.ff = nn.Sequential(nn.Linear(width, ff_width), nn.GELU(), nn.Linear(ff_width, width))
 
-    def forward(self, x: Tensor, bias: Tensor) -> Tensor:
-        x = x + self.attn(self.norm1(x), bias)
+    def forward(self, x: Tensor, bias: Tensor, prefix: KeysValues | None = None) -> Tensor:
+        x = x + self.attn(self.norm1(x), bias, prefix)
         return x + self.ff(self.norm2(x))
+
+    def forward_keeping_keys_values(self, x: Tensor, bias: Tensor) -> tuple[Tensor, KeysValues]:
+        """The layer's output and the keys and values its attention computed."""
+        q, k, v = self.attn.project(self.norm1(x))
+        x = x + self.attn.attend(q, k, v, bias)
+        return x + self.ff(self.norm2(x)), (k, v)
 
 
 class TransformerStack(nn.Module):
@@ -89,7 +115,25 @@ class TransformerStack(nn.Module):
         self.layers = nn.ModuleList(EncoderLayer(width, heads, ff_width) for _ in range(layers))
         self.norm = nn.LayerNorm(width)
 
-    def forward(self, x: Tensor, bias: Tensor) -> Tensor:
-        for layer in self.layers:
-            x = layer(x, bias)
+    def forward(
+        self, x: Tensor, bias: Tensor, prefixes: Sequence[KeysValues] | None = None
+    ) -> Tensor:
+        """``prefixes``: one ``prefix`` per layer (``SelfAttention.forward``), or none."""
+        for index, layer in enumerate(self.layers):
+            x = layer(x, bias, None if prefixes is None else prefixes[index])
         return self.norm(x)
+
+    def keys_values(self, x: Tensor, bias: Tensor) -> list[KeysValues]:
+        """The keys and values every layer computes for the tokens ``x`` attending among
+        themselves: what ``forward``'s ``prefixes`` takes for a block that attends to nothing
+        else."""
+        out: list[KeysValues] = []
+        for index, layer in enumerate(self.layers):
+            if index + 1 == len(self.layers):
+                # The last layer's output is not needed, only what its attention saw.
+                _, k, v = layer.attn.project(layer.norm1(x))
+                out.append((k, v))
+            else:
+                x, keys_values = layer.forward_keeping_keys_values(x, bias)
+                out.append(keys_values)
+        return out

@@ -30,7 +30,7 @@ from torch import Tensor
 from ardy_export.diffusion import DiffusionSchedule, ddim_timesteps
 from ardy_export.models import layout as L
 from ardy_export.models.denoiser import Denoiser, DenoiserConfig
-from ardy_export.models.graphs import DENOISER_INPUTS, DecoderGraph, EncoderGraph
+from ardy_export.models.graphs import DENOISER_MODULE_INPUTS, DecoderGraph, EncoderGraph
 from ardy_export.models.kinematics import fk_world, global_to_local, rot6d_to_matrix
 from ardy_export.models.layout import Skeleton
 from ardy_export.models.tokenizer import BodyTokenizer, TokenizerConfig
@@ -106,7 +106,7 @@ class WindowRequest:
 
 
 # The denoiser's inputs after x_t and step, in its argument order (``_pack_rows`` keys).
-PACKED_INPUTS = DENOISER_INPUTS[2:]
+PACKED_INPUTS = DENOISER_MODULE_INPUTS[2:]
 
 
 def call_denoiser(

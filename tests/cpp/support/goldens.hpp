@@ -98,6 +98,24 @@ inline const Goldens& goldens() {
   return g;
 }
 
+// The denoiser graph's inputs for the golden denoiser case: the golden
+// history through the package's history graph, every other input as saved.
+inline std::vector<std::pair<std::string, ardy::Tensor>> golden_denoiser_inputs(const ardy::ModelPackage& package) {
+  std::vector<std::pair<std::string, ardy::Tensor>> history;
+  for (const char* name : {"history", "history_mask"}) {
+    history.emplace_back(name, goldens().tensor(std::string("denoiser/input/") + name));
+  }
+  std::vector<std::pair<std::string, ardy::Tensor>> inputs;
+  for (const ardy::TensorInfo& info : package.denoiser().inputs()) {
+    if (info.name == "history_kv") {
+      inputs.emplace_back(info.name, package.history().run(history, {"history_kv"}).at(0));
+    } else {
+      inputs.emplace_back(info.name, goldens().tensor("denoiser/input/" + info.name));
+    }
+  }
+  return inputs;
+}
+
 // Worst absolute error of found against expected, and the scale it is
 // judged against (max(1, max |expected|)).
 struct Comparison {

@@ -1,0 +1,166 @@
+"""A denoiser checkpoint rebuilt from a model package's own graphs.
+
+A package carries its denoiser's weights in its ONNX graphs. ``recover_checkpoint`` reads
+them back into a ``Denoiser`` and writes a slim checkpoint that ``ardy-export export`` takes,
+so a package whose checkpoint is gone can be exported again (to a newer package format, say)
+or trained further. Everything that is not a denoiser weight (configs, tokenizer, statistics,
+schedule, skeleton) comes from a base checkpoint of the same architecture, such as the one
+the package was fine-tuned from; the rebuilt model must reproduce the package's graphs
+(denoiser, decoder, encoder) within ``PARITY_ATOL`` or nothing is written.
+
+Weights named after their parameter are taken by name. The exporter stores the weight of a
+``Linear`` as the transposed right-hand side of a ``MatMul`` under a generated name; it is
+found through the ``Add`` of the same layer's named bias.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import onnx
+import onnxruntime as ort
+import torch
+from onnx import numpy_helper
+
+from ardy_export.models.graphs import DENOISER_MODULE_INPUTS, example_denoiser_inputs
+from ardy_export.package import run_history_graph
+from ardy_export.sampling.sampler import ModelBundle
+from ardy_export.training.common import save_checkpoint
+
+PARITY_ATOL = 1e-4
+# (history, future) lengths the rebuilt denoiser is compared at.
+CHECK_LENGTHS = ((0, 0), (3, 2), (12, 6))
+
+
+class RecoverError(RuntimeError):
+    """The package's graphs do not give every weight, or the rebuilt model differs."""
+
+
+def graph_weights(path: Path) -> dict[str, np.ndarray]:
+    """Parameter name -> value for every weight of one exported graph that can be named."""
+    model = onnx.load(str(path))
+    initializers = {i.name: numpy_helper.to_array(i) for i in model.graph.initializer}
+    weights = {name: value for name, value in initializers.items() if "." in name}
+    consumers: dict[str, list[onnx.NodeProto]] = {}
+    for node in model.graph.node:
+        for name in node.input:
+            consumers.setdefault(name, []).append(node)
+    for node in model.graph.node:
+        if node.op_type != "MatMul" or node.input[1] not in initializers:
+            continue
+        for add in consumers.get(node.output[0], []):
+            bias = next((n for n in add.input if n.endswith(".bias")), None)
+            if add.op_type == "Add" and bias is not None and bias in initializers:
+                weights[bias[: -len(".bias")] + ".weight"] = initializers[node.input[1]].T
+    return weights
+
+
+def _run(path: Path, feeds: dict[str, np.ndarray]) -> np.ndarray:
+    options = ort.SessionOptions()
+    options.intra_op_num_threads = 1
+    session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+    names = {i.name for i in session.get_inputs()}
+    return session.run(None, {k: v for k, v in feeds.items() if k in names})[0]
+
+
+def _check(name: str, expected: torch.Tensor, found: np.ndarray) -> float:
+    error = float(np.max(np.abs(expected.numpy() - found))) if found.size else 0.0
+    if tuple(found.shape) != tuple(expected.shape) or not error <= PARITY_ATOL:
+        raise RecoverError(
+            f"the rebuilt model does not reproduce the package's {name} graph "
+            f"(max abs error {error:.3g}, limit {PARITY_ATOL}): is the base checkpoint of the "
+            "same architecture and tokenizer?"
+        )
+    return error
+
+
+def _denoiser_reference(package: Path, inputs: Sequence[torch.Tensor]) -> np.ndarray:
+    """x0 of the package's own graphs for ``Denoiser.forward`` inputs (format 1 or 2)."""
+    feeds = {
+        name: tensor.numpy()
+        for name, tensor in zip(
+            DENOISER_MODULE_INPUTS,
+            inputs,
+            strict=True,
+        )
+    }
+    if (package / "history.onnx").is_file():
+        feeds["history_kv"] = run_history_graph(package, feeds["history"], feeds["history_mask"])
+    return _run(package / "denoiser.onnx", feeds)
+
+
+def recover_checkpoint(package: Path, base_checkpoint: Path, out: Path) -> dict[str, float]:
+    """Writes ``out`` (slim checkpoint: base + the package's denoiser weights and sampling
+    defaults); returns the largest difference to each of the package's graphs."""
+    description = json.loads((package / "model.json").read_text(encoding="utf-8"))
+    base = torch.load(base_checkpoint, map_location="cpu", weights_only=False)
+    bundle = ModelBundle.from_state(base)
+    found: dict[str, np.ndarray] = {}
+    for graph in ("history.onnx", "denoiser.onnx"):
+        if (package / graph).is_file():
+            found.update(graph_weights(package / graph))
+    state = bundle.denoiser.state_dict()
+    missing = [name for name in state if name not in found]
+    if missing:
+        raise RecoverError(
+            f"{package}: the graphs hold no weight for {len(missing)} denoiser parameters "
+            f"(first: {missing[0]}); is the base checkpoint of the same architecture?"
+        )
+    for name, value in state.items():
+        if tuple(found[name].shape) != tuple(value.shape):
+            raise RecoverError(
+                f"{package}: {name} is {tuple(found[name].shape)} in the graphs, "
+                f"{tuple(value.shape)} in the base checkpoint's architecture"
+            )
+    weights = {name: torch.from_numpy(np.array(found[name])) for name in state}
+    bundle.denoiser.load_state_dict(weights)
+    errors = {"denoiser": 0.0, "decoder": 0.0, "encoder": 0.0}
+    with torch.no_grad():
+        for seed, (history, future) in enumerate(CHECK_LENGTHS):
+            inputs = example_denoiser_inputs(bundle.denoiser, 3, history, future, seed=seed)
+            reference = _denoiser_reference(package, inputs)
+            error = _check("denoiser", bundle.denoiser(*inputs), reference)
+            errors["denoiser"] = max(errors["denoiser"], error)
+        g = torch.Generator().manual_seed(7)
+        c = bundle.config
+        tokens = torch.randn(2, 6, c.token_dim, generator=g)
+        prev_root = torch.randn(2, c.root_dim, generator=g)
+        prev_valid = torch.tensor([1.0, 0.0])
+        feeds = {
+            "tokens": tokens.numpy(),
+            "prev_root": prev_root.numpy(),
+            "prev_root_valid": prev_valid.numpy(),
+        }
+        errors["decoder"] = _check(
+            "decoder",
+            bundle.decoder_graph(tokens, prev_root, prev_valid),
+            _run(package / "decoder.onnx", feeds),
+        )
+        body = torch.randn(2, 6 * c.patch, c.feature_dim - c.root_dim, generator=g)
+        errors["encoder"] = _check(
+            "encoder",
+            bundle.encoder_graph(body),
+            _run(package / "encoder.onnx", {"body": body.numpy()}),
+        )
+    sampling = description.get("sampling", {})
+    defaults = {
+        "steps": int(sampling.get("default_steps", 4)),
+        "w_text": float(sampling.get("w_text", 2.0)),
+        "w_con": float(sampling.get("w_con", 2.0)),
+    }
+    recovered: dict[str, Any] = {
+        key: value for key, value in base.items() if key not in ("model", "optimizer", "rng")
+    }
+    recovered["ema"] = weights
+    recovered["sampling_defaults"] = defaults
+    recovered["recovered_from"] = {
+        "package": str(package),
+        "base_checkpoint": str(base_checkpoint),
+        "max_abs_error": errors,
+    }
+    save_checkpoint(out, recovered)
+    return errors
