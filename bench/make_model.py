@@ -65,11 +65,16 @@ def model_section(path: Path, keys: tuple[str, ...]) -> dict:
 
 def build(seed: int, text_dim: int) -> tuple[ModelBundle, dict]:
     torch.manual_seed(seed)
-    tok_size = model_section(ROOT / "export_tools/configs/tokenizer.yaml", TOKENIZER_KEYS)
+    tok_size = model_section(
+        ROOT / "export_tools/configs/tokenizer.yaml", TOKENIZER_KEYS
+    )
     den_size = model_section(ROOT / "export_tools/configs/denoiser.yaml", DENOISER_KEYS)
     tcfg = TokenizerConfig(body_dim=L.BODY_DIM, **tok_size)
     dcfg = DenoiserConfig(
-        feature_dim=L.FEATURE_SIZE, latent_dim=tcfg.latent_dim, text_dim=text_dim, **den_size
+        feature_dim=L.FEATURE_SIZE,
+        latent_dim=tcfg.latent_dim,
+        text_dim=text_dim,
+        **den_size,
     )
     tok = BodyTokenizer(tcfg)
     mean, std = synthetic_stats()
@@ -108,7 +113,10 @@ def checkpoint(bundle: ModelBundle) -> dict:
         "ema": None,
         "alphas_cumprod": np.asarray(bundle.schedule.alphas_cumprod).tolist(),
         "stats": {"mean": bundle.mean.tolist(), "std": bundle.std.tolist()},
-        "latent_stats": {"mean": bundle.latent_mean.tolist(), "std": bundle.latent_std.tolist()},
+        "latent_stats": {
+            "mean": bundle.latent_mean.tolist(),
+            "std": bundle.latent_std.tolist(),
+        },
         "skeleton": {
             "names": list(s.names),
             "parents": [int(p) for p in s.parents],
@@ -139,11 +147,16 @@ def main() -> None:
     export_package(
         bundle,
         out,
-        provenance={"kind": "random-weight benchmark package (bench/make_model.py)", **sizes},
+        provenance={
+            "kind": "random-weight benchmark package (bench/make_model.py)",
+            **sizes,
+        },
         tiny_text_seed=args.seed if args.tiny_text else None,
     )
     torch.save(checkpoint(bundle), out / "reference.pt")
-    (out / "bench_sizes.json").write_text(json.dumps(sizes, indent=1) + "\n", encoding="utf-8")
+    (out / "bench_sizes.json").write_text(
+        json.dumps(sizes, indent=1) + "\n", encoding="utf-8"
+    )
     params = {
         "tokenizer": sum(p.numel() for p in bundle.tokenizer.parameters()),
         "denoiser": sum(p.numel() for p in bundle.denoiser.parameters()),

@@ -1,7 +1,10 @@
 """The same windows in the PyTorch reference sampler (export_tools ardy_export.sampling), for
 the C++/PyTorch ratio of bench/run.sh: one window (DDIM with every guidance row, root
-overwrite, decoding with 4 context tokens, features, FK) at 4 and 10 steps with a full history
-and a dense path constraint, and one denoiser call with the three guidance rows. Prints JSON.
+overwrite, decoding with 4 context tokens, features, FK) at 4 steps with a full history for
+ardy-bench's three cases (text only: no goals; waypoints every 3 s; full: a dense path), the
+full case at 10 steps, and one denoiser call with the full case's three guidance rows. The
+reference is the uncached ``Denoiser.forward`` (every call recomputes the history). Prints
+JSON.
 
     .venv/bin/python bench/reference.py --checkpoint build/bench_model/reference.pt --threads 2
 """
@@ -21,7 +24,11 @@ import torch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "export_tools"))
 
-from ardy_export.sampling.constraints import path_from_polyline, window_goals
+from ardy_export.sampling.constraints import (
+    RootWaypoint,
+    path_from_polyline,
+    window_goals,
+)
 from ardy_export.sampling.guidance import guidance_branches
 from ardy_export.sampling.sampler import (
     ModelBundle,
@@ -81,17 +88,29 @@ def main() -> None:
     rng = np.random.default_rng(0)
     history = rng.standard_normal((h, cfg.token_dim)).astype(np.float32)
     text = rng.standard_normal(cfg.text_dim).astype(np.float32)
-    path = path_from_polyline([(0.0, 0.0), (0.0, 400.0)], 1.2, 0)
-    goals = window_goals([path], 0, (0.0, 0.0), bundle.mean, bundle.std, c, f)
-    request = WindowRequest(
-        history, text, goals, rng.standard_normal((c, cfg.token_dim)).astype(np.float32)
-    )
+    noise = rng.standard_normal((c, cfg.token_dim)).astype(np.float32)
+    fps = 20.0
+    every = int(3 * fps)
+    constraints = {
+        "text": [],
+        "waypoints": [
+            RootWaypoint(frame, 0.0, 1.2 * frame / fps)
+            for frame in range(every, 8000, every)
+        ],
+        "full": [path_from_polyline([(0.0, 0.0), (0.0, 400.0)], 1.2, 0)],
+    }
     assert bundle.skeleton is not None
     skeleton = bundle.skeleton
     k = min(h, 4)
 
+    def request_for(case: str) -> WindowRequest:
+        goals = window_goals(
+            constraints[case], 0, (0.0, 0.0), bundle.mean, bundle.std, c, f
+        )
+        return WindowRequest(history, text, goals, noise)
+
     @torch.no_grad()
-    def window(steps: int) -> None:
+    def window(request: WindowRequest, steps: int) -> None:
         (x0,) = sample_windows(bundle.denoiser, bundle.schedule, [request], steps)
         prev = (
             history[h - k - 1, 5 * (cfg.patch - 1) : 5 * cfg.patch] if h > k else None
@@ -100,24 +119,35 @@ def main() -> None:
         feats = window_features(x0, body, bundle.mean, bundle.std, (0.0, 0.0))
         features_to_motion(feats, skeleton)
 
-    branches = [guidance_branches(2.0, 2.0, True, goals.has_constraints)]
-    packed = _pack_rows([request], branches, cfg)
+    full = request_for("full")
+    branches = [guidance_branches(2.0, 2.0, True, full.goals.has_constraints)]
+    packed = _pack_rows([full], branches, cfg)
     rows = len(branches[0])
-    x_t = torch.from_numpy(request.noise).unsqueeze(0).expand(rows, -1, -1).contiguous()
+    x_t = torch.from_numpy(noise).unsqueeze(0).expand(rows, -1, -1).contiguous()
     step = torch.full((rows,), cfg.diffusion_steps - 1, dtype=torch.int64)
 
     @torch.no_grad()
     def denoiser_call() -> None:
         call_denoiser(bundle.denoiser, x_t, step, packed)
 
+    cases = {}
+    for case in constraints:
+        request = request_for(case)
+        cases[case] = {
+            "rows": len(
+                guidance_branches(2.0, 2.0, True, request.goals.has_constraints)
+            ),
+            "future_tokens": int(request.goals.future_tokens),
+            "window_4_ms": summary(timed(lambda r=request: window(r, 4), args.repeats)),
+        }
     result = {
         "torch": torch.__version__,
         "threads": torch.get_num_threads(),
         "history_tokens": h,
-        "future_tokens": int(goals.future_tokens),
-        "rows": rows,
-        "window_4_ms": summary(timed(lambda: window(4), args.repeats)),
-        "window_10_ms": summary(timed(lambda: window(10), max(3, args.repeats // 2))),
+        "cases": cases,
+        "window_10_ms": summary(
+            timed(lambda: window(full, 10), max(3, args.repeats // 2))
+        ),
         "denoiser_call_ms": summary(timed(denoiser_call, args.repeats * 2)),
     }
     text_json = json.dumps(result, indent=1)

@@ -5,6 +5,8 @@
 #   bench/run.sh                          # random-weight package of the default size
 #   bench/run.sh --package DIR --checkpoint CKPT.pt   # a trained package and its checkpoint
 #   options: --threads N (default: all cores), --repeats N (default 30),
+#            --crowd-seconds S (real-time play of each crowd; default 10), --crowds LIST
+#            (planners per crowd; default 8,16,50; "" for none),
 #            --future-tokens N (future goal tokens; default: the model's maximum, as the planner),
 #            --spin (ONNX Runtime threads spin while idle), --shared-pool (one intra-op
 #            pool for every graph; with --spin the fastest setting), --tiny-text (random package
@@ -26,6 +28,8 @@ REFERENCE=1
 FUTURE=-1
 SPIN=
 SHARED=
+CROWD_SECONDS=10
+CROWDS=8,16,50
 while [ $# -gt 0 ]; do
   case $1 in
     --package) PACKAGE=$2; shift 2 ;;
@@ -37,7 +41,9 @@ while [ $# -gt 0 ]; do
     --spin) SPIN=--spin; shift ;;
     --shared-pool) SHARED=--shared-pool; shift ;;
     --no-reference) REFERENCE=0; shift ;;
-    -h|--help) sed -n '2,16p' "$0"; exit 0 ;;
+    --crowd-seconds) CROWD_SECONDS=$2; shift 2 ;;
+    --crowds) CROWDS=$2; shift 2 ;;
+    -h|--help) sed -n '2,18p' "$0"; exit 0 ;;
     *) echo "bench/run.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -57,7 +63,8 @@ cmake --build "$BUILD" --target ardy-bench --parallel "$(nproc)" >"$OUT/build.lo
 LABEL=""
 if [ -z "$PACKAGE" ]; then
   PACKAGE=$ROOT/build/bench_model
-  if [ ! -f "$PACKAGE/reference.pt" ] || [ ! -f "$PACKAGE/model.json" ]; then
+  # (Re)made when missing or of an older package format than the runtime reads.
+  if [ ! -f "$PACKAGE/reference.pt" ] || ! grep -q '"format_version": 2,' "$PACKAGE/model.json" 2>/dev/null; then
     echo "bench: writing a random-weight package of the default size into $PACKAGE" >&2
     "$PY" "$ROOT/bench/make_model.py" --out "$PACKAGE" $TINY_TEXT >"$OUT/make_model.log" 2>&1 \
       || { cat "$OUT/make_model.log" >&2; exit 1; }
@@ -67,9 +74,11 @@ if [ -z "$PACKAGE" ]; then
 fi
 [ -f "$PACKAGE/model.json" ] || { echo "bench: $PACKAGE has no model.json" >&2; exit 1; }
 
+"$PY" "$ROOT/bench/make_probe.py" --out "$OUT/matmul_probe.onnx"
 echo "bench: C++ runtime on $PACKAGE ($THREADS threads)" >&2
 "$BUILD/src/ardy-bench" --package "$PACKAGE" --threads "$THREADS" --repeats "$REPEATS" \
-  --future-tokens "$FUTURE" $SPIN $SHARED --json "$OUT/cpp.json" ${LABEL:+--label "$LABEL"} >"$OUT/cpp.md"
+  --future-tokens "$FUTURE" $SPIN $SHARED --probe "$OUT/matmul_probe.onnx" --crowd-seconds "$CROWD_SECONDS" \
+  --crowds "$CROWDS" --json "$OUT/cpp.json" ${LABEL:+--label "$LABEL"} >"$OUT/cpp.md"
 
 if [ "$REFERENCE" = 1 ] && [ -n "$CHECKPOINT" ]; then
   echo "bench: PyTorch reference on $CHECKPOINT ($THREADS threads)" >&2

@@ -13,6 +13,7 @@
 #include "io.hpp"
 #include "motion_filter.hpp"
 #include "json_text.hpp"
+#include "onnx_external_data.hpp"
 
 namespace ardy {
 namespace {
@@ -27,6 +28,27 @@ constexpr size_t kMaxGraphBytes = size_t{2} << 30;
 constexpr int64_t kMaxSize = int64_t{1} << 24;
 
 std::string in_quotes(const std::string& s) { return "'" + s + "'"; }
+
+// Refuses a graph whose tensors keep their data in external files that could
+// lie outside the package (onnx_external_data.hpp says why). From a folder,
+// a location must be a plain relative path inside it; bytes given in memory
+// or through a reader have no folder, and ONNX Runtime would resolve the
+// location against the process's working folder, so none is allowed.
+void check_external_data(const void* data, size_t size, const std::string& where, bool in_folder) {
+  for (const onnx_scan::ExternalTensor& t : onnx_scan::external_tensors(data, size, where)) {
+    const std::string tensor = "tensor " + in_quotes(t.tensor) + " keeps its data in external file " +
+                               in_quotes(t.location);
+    if (!in_folder) {
+      throw Error(where + ": " + tensor +
+                  "; a package loaded from memory must embed every tensor (external data is refused)");
+    }
+    const std::string reason = onnx_scan::unsafe_path_reason(t.location);
+    if (!reason.empty()) {
+      throw Error(where + ": " + tensor + ", whose location " + reason +
+                  " (expected a relative path inside the package folder)");
+    }
+  }
+}
 
 
 // --- where the bytes come from ------------------------------------------------
@@ -51,6 +73,9 @@ class FolderSource final : public FileSource {
   }
   OnnxSession session(std::shared_ptr<OnnxEnvironment> env, const std::string& file,
                       const SessionOptions& options) const override {
+    // Scanned first: every external-data location must stay in the folder.
+    const std::string bytes = read_file(where(file), "an ONNX model", kMaxGraphBytes);
+    check_external_data(bytes.data(), bytes.size(), where(file), true);
     // By path, so ORT finds external weight files next to the graph.
     return OnnxSession::from_file(std::move(env), where(file), options);
   }
@@ -82,6 +107,7 @@ class MemorySource final : public FileSource {
       throw Error(where(file) + ": " + std::to_string(bytes.size) + " bytes, larger than the " +
                   std::to_string(kMaxGraphBytes) + " bytes allowed for an ONNX model");
     }
+    check_external_data(bytes.data, bytes.size, where(file), false);
     return OnnxSession::from_memory(std::move(env), bytes.data, bytes.size, where(file), options);
   }
 
@@ -408,6 +434,15 @@ void check_graph(const OnnxSession& session, const GraphSpec& spec, const std::s
   check_list(session.outputs(), spec.outputs, "outputs");
 }
 
+// A file model.json names must be a plain relative path inside the package
+// (an untrusted package must not make the runtime read elsewhere).
+void check_file_name(const Manifest& m, const std::string& path, const std::string& file) {
+  const std::string reason = onnx_scan::unsafe_path_reason(file);
+  if (!reason.empty()) {
+    m.fail(path, "is " + in_quotes(file) + ", which " + reason + " (expected a file name inside the package)");
+  }
+}
+
 std::vector<std::string> string_list(const Manifest& m, const std::string& path) {
   const json& value = m.at(path);
   if (!value.is_array()) m.fail(path, "must be an array of strings, found " + describe_json(value));
@@ -615,6 +650,14 @@ void ModelPackage::Impl::parse(const Manifest& m) {
   denoiser_sizes.layers = m.size("denoiser.layers", 1, 1024);
   denoiser_sizes.heads = m.size("denoiser.heads", 1, 1024);
   denoiser_sizes.ff_mult = m.size("denoiser.ff_mult", 1, 1024);
+  const std::string goal_input = m.string("denoiser.window_goal_input");
+  if (goal_input == "full") {
+    denoiser_sizes.window_goal_dim = tokens.goal_dim;
+  } else if (goal_input == "body") {
+    denoiser_sizes.window_goal_dim = tokens.goal_dim - tokens.root_token_dim();
+  } else {
+    m.fail("denoiser.window_goal_input", "is " + in_quotes(goal_input) + ", expected 'full' or 'body'");
+  }
   if (denoiser_sizes.width % denoiser_sizes.heads != 0) {
     m.fail("denoiser.heads", "is " + std::to_string(denoiser_sizes.heads) + ", expected a divisor of denoiser.width (" +
                                  std::to_string(denoiser_sizes.width) + ")");
@@ -622,7 +665,9 @@ void ModelPackage::Impl::parse(const Manifest& m) {
 
   // --- text ---------------------------------------------------------------------------------
   text.graph_file = m.string("text.graph");
+  check_file_name(m, "text.graph", text.graph_file);
   text.vocab_file = m.string("text.vocab");
+  check_file_name(m, "text.vocab", text.vocab_file);
   text.embedding_size = m.size("text.embedding_size");
   WordPieceOptions& wp = text.tokenizer;
   wp.max_tokens = m.size("text.max_tokens", 2, 1 << 20);
@@ -657,9 +702,7 @@ void ModelPackage::Impl::parse(const Manifest& m) {
     spec.key = key;
     const std::string base = std::string("graphs.") + key;
     spec.file = m.string(base + ".file");
-    if (spec.file.empty() || spec.file.find("..") != std::string::npos || spec.file.front() == '/') {
-      m.fail(base + ".file", "is " + in_quotes(spec.file) + ", expected a file name inside the package");
-    }
+    check_file_name(m, base + ".file", spec.file);
     spec.inputs = parse_signature(m, base + ".inputs");
     spec.outputs = parse_signature(m, base + ".outputs");
     graphs.emplace(key, std::move(spec));
@@ -823,6 +866,7 @@ class ReaderSource final : public FileSource {
   OnnxSession session(std::shared_ptr<OnnxEnvironment> env, const std::string& file,
                       const SessionOptions& options) const override {
     const std::string bytes = read(file, "an ONNX model", kMaxGraphBytes);
+    check_external_data(bytes.data(), bytes.size(), where(file), false);
     return OnnxSession::from_memory(std::move(env), bytes.data(), bytes.size(), where(file), options);
   }
 

@@ -67,6 +67,7 @@ struct DenoiserSizes {
   size_t layers = 0;
   size_t heads = 0;
   size_t ff_mult = 0;
+  size_t window_goal_dim = 0;  // goal entries beside each window token: goal_dim ("full") or its body part ("body")
   size_t stages() const { return two_stage ? 2 : 1; }
   size_t head_dim() const { return width / heads; }
   size_t cached_layers() const { return stages() * layers; }

@@ -89,6 +89,9 @@ struct Planner::FrameBlock {
   std::vector<glm::quat> local_rotations;  // [count * J]
   std::vector<glm::vec3> positions;        // [count * J]
   std::vector<float> contacts;             // [count * c]
+  // The window the frames came from (frame start + i is its row i): the
+  // model's own frames for raw_frame_at, kept alive by the block, no copy.
+  std::shared_ptr<const WindowResult> raw;
 };
 
 // A window's committed part and the rollout state before it (the rollback
@@ -344,6 +347,40 @@ bool Planner::frame_at(int64_t frame, Pose& out) const {
   for (const FrameSpan& s : spans_) {
     if (frame >= s.begin && frame < s.end) {
       fill_frame(s, frame, out);
+      out.time = static_cast<double>(frame) / fps_;
+      return true;
+    }
+  }
+  return false;
+}
+
+void Planner::fill_raw_frame(const FrameSpan& span, int64_t frame, Pose& out) const {
+  const FrameBlock& b = *span.block;
+  const WindowResult& raw = *b.raw;
+  const FeatureLayout& layout = package_->layout();
+  const auto i = static_cast<size_t>(frame - b.start);
+  const float* row = raw.features.data() + i * layout.feature_size;
+  const float* root = row + layout.root_position.start;
+  out.root_position = glm::vec3(root[0], root[1], root[2]);
+  out.heading = heading_angle(row[layout.heading.start], row[layout.heading.start + 1]);
+  const glm::mat3* local = raw.motion.local_rotations_of(i);
+  const glm::vec3* positions = raw.motion.positions_of(i);
+  for (size_t j = 0; j < joints_; ++j) {
+    out.local_rotations[j] = quat_from_matrix(local[j]);
+    out.positions[j] = positions[j];
+  }
+  std::copy_n(row + layout.foot_contacts.start, contacts_, out.contacts.begin());
+  out.window_id = b.window_id;
+}
+
+bool Planner::raw_frame_at(int64_t frame, Pose& out) const {
+  if (out.local_rotations.size() != joints_) out.local_rotations.resize(joints_);
+  if (out.positions.size() != joints_) out.positions.resize(joints_);
+  if (out.contacts.size() != contacts_) out.contacts.resize(contacts_);
+  std::lock_guard<std::mutex> lock(frames_mutex_);
+  for (const FrameSpan& s : spans_) {
+    if (frame >= s.begin && frame < s.end) {
+      fill_raw_frame(s, frame, out);
       out.time = static_cast<double>(frame) / fps_;
       return true;
     }
@@ -1052,6 +1089,7 @@ bool Planner::publish(int64_t start, bool splice, size_t tokens, Rollout before,
   block->start = start;
   block->count = count;
   block->window_id = window_id;
+  block->raw = result;
   block->root_position.resize(count);
   block->heading.resize(count);
   block->local_rotations.resize(count * joints_);

@@ -248,6 +248,13 @@ class Planner {
   // Model frame `frame` exactly (no interpolation); false when it is not in
   // the queue.
   bool frame_at(int64_t frame, Pose& out) const;
+  // The model's own frame `frame` as its window generated it, before the
+  // output filter, foot locking and joint reach: what frame_at shows with
+  // those steps undone (splices included: the window that shows the frame).
+  // For tests and debugging overlays that compare the shown motion with the
+  // model's (tests/cpp/test_continuity.cpp bounds the shown joint speeds by
+  // the raw ones). False when the frame is not in the queue.
+  bool raw_frame_at(int64_t frame, Pose& out) const;
 
   // --- commands (validated here, applied on the worker) ---
   void set_prompt(const std::string& text);                 // from now on
@@ -339,6 +346,7 @@ class Planner {
   int64_t playhead_frame() const;  // floor of the playhead in model frames
   int64_t frame_of(double time, const char* what) const;
   bool fill_frame(const FrameSpan& span, int64_t frame, Pose& out) const;
+  void fill_raw_frame(const FrameSpan& span, int64_t frame, Pose& out) const;
 
   // worker side
   void worker_main();
