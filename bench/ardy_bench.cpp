@@ -8,11 +8,11 @@
 //     sparse root waypoints every 3 s), full (a dense path: 3 rows, H and F at
 //     the model's maximum); p50 and p99, the DDIM part alone, its FLOPs (the
 //     matrix products of the graphs, 2 per multiply-add, counted from the
-//     package's sizes), the GFLOP/s reached and the FLOPs the uncached
-//     one-call layout of format version 1 would have done;
+//     package's sizes), the GFLOP/s reached and the FLOPs format version 1's
+//     layout (one call per step, history and goals recomputed) would do;
 //   - the full case at 10 steps, and batches of 2, 4 and 8 full windows
 //     (several characters) in one call, per window;
-//   - one history and one denoiser call, one decoder call;
+//   - one history, one goals and one denoiser call, one decoder call;
 //   - text encoding, cold (cache cleared) and cached;
 //   - the planner's cost on the caller's thread: advance(), sample_current(),
 //     a command, measured per call while the worker generates in the
@@ -244,21 +244,34 @@ double transformer_flops(const ardy::DenoiserSizes& s, size_t layers, double que
   return static_cast<double>(layers) * (queries * per_token + attention);
 }
 
+// The goals' share of the input projections of one window (all stages): the
+// window goals beside each window token and the `future` tokens.
+double goal_projection_flops(const ardy::ModelPackage& p, size_t future) {
+  const ardy::DenoiserSizes& s = p.denoiser_sizes();
+  const ardy::TokenSizes& t = p.tokens();
+  const double w = static_cast<double>(s.width), c = static_cast<double>(t.window);
+  const double pm = static_cast<double>(t.goal_dim), f = static_cast<double>(future);
+  const double per_stage = 2.0 * w * (c * (static_cast<double>(s.window_goal_dim) + pm) + f * 2.0 * pm);
+  return static_cast<double>(s.stages()) * per_stage;
+}
+
 // One denoiser row (both stages) for one step: step, text, window and `future`
-// tokens computed, attending to `history` keys as well; `history_computed`
-// also computes the history tokens in the call (format version 1's layout).
-double denoiser_row_flops(const ardy::ModelPackage& p, size_t history, size_t future, bool history_computed) {
+// tokens computed, attending to `history` keys as well. `uncached`: format
+// version 1's layout, where the call also computes the history tokens and the
+// goals' projections.
+double denoiser_row_flops(const ardy::ModelPackage& p, size_t history, size_t future, bool uncached) {
   const ardy::DenoiserSizes& s = p.denoiser_sizes();
   const ardy::TokenSizes& t = p.tokens();
   const double w = static_cast<double>(s.width), c = static_cast<double>(t.window);
   const double h = static_cast<double>(history), f = static_cast<double>(future);
-  const double pm = static_cast<double>(t.goal_dim), d = static_cast<double>(t.token_dim);
-  const double window_in = d + static_cast<double>(s.window_goal_dim) + pm;
-  const double queries = 2.0 + c + f + (history_computed ? h : 0.0);
-  double per_stage = transformer_flops(s, s.layers, queries, queries + (history_computed ? 0.0 : h));
-  per_stage += 2.0 * w * (c * window_in + f * 2.0 * pm + static_cast<double>(p.text_embedding_size()));
-  if (history_computed) per_stage += 2.0 * w * h * d;
-  return static_cast<double>(s.stages()) * per_stage + 2.0 * c * w * d;  // + the heads (root and latent)
+  const double d = static_cast<double>(t.token_dim);
+  const double queries = 2.0 + c + f + (uncached ? h : 0.0);
+  double per_stage = transformer_flops(s, s.layers, queries, queries + (uncached ? 0.0 : h));
+  per_stage += 2.0 * w * (c * d + static_cast<double>(p.text_embedding_size()));  // tokens, text
+  if (uncached) per_stage += 2.0 * w * h * d;
+  double flops = static_cast<double>(s.stages()) * per_stage + 2.0 * c * w * d;  // + the heads (root and latent)
+  if (uncached) flops += goal_projection_flops(p, future);
+  return flops;
 }
 
 // The history graph for one window.
@@ -273,7 +286,7 @@ double history_flops(const ardy::ModelPackage& p, size_t history) {
 }
 
 struct WindowWork {
-  double flops = 0.0;           // what the runtime does: history once, the row groups every step
+  double flops = 0.0;           // what the runtime does: history and goals once, the row groups every step
   double uncached_flops = 0.0;  // one call per step with every row computing history and F future tokens
   size_t rows = 0;
   size_t history = 0;
@@ -291,6 +304,9 @@ WindowWork window_work(const ardy::ModelPackage& p, const ardy::WindowInput& in)
   for (float v : in.goals.future_mask) work.future_attended += v != 0.0f ? 1 : 0;
   const double steps = static_cast<double>(in.steps);
   work.flops = history_flops(p, in.history_tokens);
+  const bool constraint_row =
+      std::any_of(rows.begin(), rows.end(), [](const ardy::GuidanceRow& row) { return row.constraint_keep != 0.0f; });
+  if (constraint_row) work.flops += goal_projection_flops(p, in.goals.future_tokens);
   for (const ardy::GuidanceRow& row : rows) {
     const size_t future = row.constraint_keep != 0.0f ? in.goals.future_tokens : 0;
     work.flops += steps * denoiser_row_flops(p, in.history_tokens, future, false);
@@ -361,15 +377,30 @@ std::vector<std::pair<std::string, ardy::Tensor>> history_inputs(const ardy::Mod
   return x;
 }
 
+// The goals graph's inputs for one window's goals [1, ...].
+std::vector<std::pair<std::string, ardy::Tensor>> goals_inputs(const ardy::ModelPackage& p,
+                                                               const ardy::WindowInput& in) {
+  const ardy::TokenSizes& t = p.tokens();
+  const auto c = static_cast<int64_t>(t.window), g = static_cast<int64_t>(t.goal_dim);
+  const auto f = static_cast<int64_t>(in.goals.future_tokens);
+  std::vector<std::pair<std::string, ardy::Tensor>> x;
+  x.emplace_back("window_goal", ardy::Tensor::float32({1, c, g}, in.goals.window_goal));
+  x.emplace_back("window_goal_mask", ardy::Tensor::float32({1, c, g}, in.goals.window_goal_mask));
+  x.emplace_back("future_goal", ardy::Tensor::float32({1, f, g}, in.goals.future_goal));
+  x.emplace_back("future_goal_mask", ardy::Tensor::float32({1, f, g}, in.goals.future_goal_mask));
+  return x;
+}
+
 // The denoiser inputs of a window's constraint row (D_con, the one with the
-// future tokens), its history keys and values from `history_kv` [1, ...].
+// future tokens): its history keys and values and its goals graph outputs.
 std::vector<std::pair<std::string, ardy::Tensor>> denoiser_inputs(const ardy::ModelPackage& p,
                                                                   const ardy::WindowInput& in,
-                                                                  const ardy::Tensor& history_kv) {
+                                                                  const ardy::Tensor& history_kv,
+                                                                  const std::vector<ardy::Tensor>& goals) {
   const ardy::TokenSizes& t = p.tokens();
   const auto c = static_cast<int64_t>(t.window), d = static_cast<int64_t>(t.token_dim);
   const auto h = static_cast<int64_t>(in.history_tokens), f = static_cast<int64_t>(in.goals.future_tokens);
-  const auto g = static_cast<int64_t>(t.goal_dim), e = static_cast<int64_t>(p.text_embedding_size());
+  const auto e = static_cast<int64_t>(p.text_embedding_size());
   std::vector<std::pair<std::string, ardy::Tensor>> x;
   x.emplace_back("x_t", ardy::Tensor::float32({1, c, d}, std::vector<float>(t.window * t.token_dim, 0.5f)));
   x.emplace_back("step", ardy::Tensor::int64({1}, {9}));
@@ -378,10 +409,7 @@ std::vector<std::pair<std::string, ardy::Tensor>> denoiser_inputs(const ardy::Mo
   x.emplace_back("text_keep", ardy::Tensor::float32({1}, {0.0f}));
   x.emplace_back("history_kv", history_kv);
   x.emplace_back("history_mask", ardy::Tensor::float32({1, h}, std::vector<float>(in.history_tokens, 1.0f)));
-  x.emplace_back("window_goal", ardy::Tensor::float32({1, c, g}, in.goals.window_goal));
-  x.emplace_back("window_goal_mask", ardy::Tensor::float32({1, c, g}, in.goals.window_goal_mask));
-  x.emplace_back("future_goal", ardy::Tensor::float32({1, f, g}, in.goals.future_goal));
-  x.emplace_back("future_goal_mask", ardy::Tensor::float32({1, f, g}, in.goals.future_goal_mask));
+  for (size_t i = 0; i < goals.size(); ++i) x.emplace_back(p.goals().outputs()[i].name, goals[i]);
   x.emplace_back("future_mask", ardy::Tensor::float32({1, f}, in.goals.future_mask));
   x.emplace_back("constraint_keep", ardy::Tensor::float32({1}, {1.0f}));
   return x;
@@ -539,7 +567,15 @@ int main(int argc, char** argv) {
       p.history().run(history_in, {"history_kv"});
       if (i >= 0) history_ms.push_back(seconds_since(t0) * 1e3);
     }
-    const auto inputs = denoiser_inputs(p, in, p.history().run(history_in, {"history_kv"}).at(0));
+    const auto goals_in = goals_inputs(p, in);
+    std::vector<double> goals_ms;
+    for (int i = -2; i < args.repeats * 2; ++i) {
+      t0 = Clock::now();
+      p.goals().run(goals_in, {});
+      if (i >= 0) goals_ms.push_back(seconds_since(t0) * 1e3);
+    }
+    const auto inputs =
+        denoiser_inputs(p, in, p.history().run(history_in, {"history_kv"}).at(0), p.goals().run(goals_in, {}));
     std::vector<double> denoiser_ms;
     for (int i = -2; i < args.repeats * 2; ++i) {
       t0 = Clock::now();
@@ -617,7 +653,8 @@ int main(int argc, char** argv) {
 
     // --- report --------------------------------------------------------------------------
     const Summary s10 = summarize(full10.window_ms);
-    const Summary shist = summarize(history_ms), sd = summarize(denoiser_ms), sdec = summarize(decoder_ms);
+    const Summary shist = summarize(history_ms), sgoals = summarize(goals_ms);
+    const Summary sd = summarize(denoiser_ms), sdec = summarize(decoder_ms);
     const Summary stc = summarize(text_cold), stw = summarize(text_cached);
     const Summary sadv = summarize(advance_us), ssam = summarize(sample_us), sfr = summarize(frame_us);
     const Summary scmd = summarize(command_us), shot = summarize(sample_hot_us);
@@ -664,6 +701,8 @@ int main(int argc, char** argv) {
       << " ms | " << sp4.count << " |\n";
     o << "| history call, H = " << in.history_tokens << " | " << fmt(shist.p50) << " ms | " << fmt(shist.p99)
       << " ms | " << shist.count << " |\n";
+    o << "| goals call, F = " << in.goals.future_tokens << " | " << fmt(sgoals.p50) << " ms | " << fmt(sgoals.p99)
+      << " ms | " << sgoals.count << " |\n";
     o << "| denoiser call, constraint row (F = " << in.goals.future_tokens << ") | " << fmt(sd.p50) << " ms | "
       << fmt(sd.p99) << " ms | " << sd.count << " |\n";
     o << "| decoder call, " << (k + t.window) << " tokens | " << fmt(sdec.p50) << " ms | " << fmt(sdec.p99) << " ms | "
@@ -731,6 +770,7 @@ int main(int argc, char** argv) {
       }
       j["prepare_ms"] = to_json(sp4);
       j["history_call_ms"] = to_json(shist);
+      j["goals_call_ms"] = to_json(sgoals);
       j["denoiser_call_ms"] = to_json(sd);
       j["decoder_call_ms"] = to_json(sdec);
       j["text_cold_us"] = to_json(stc);

@@ -93,6 +93,7 @@ def main() -> None:
             ms(cpp["prepare_ms"], "p99"),
         ),
         ("history call", ms(cpp["history_call_ms"]), ms(cpp["history_call_ms"], "p99")),
+        ("goals call", ms(cpp["goals_call_ms"]), ms(cpp["goals_call_ms"], "p99")),
         (
             "denoiser call, the full case's constraint row",
             ms(cpp["denoiser_call_ms"]),

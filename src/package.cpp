@@ -34,7 +34,10 @@ std::string in_quotes(const std::string& s) { return "'" + s + "'"; }
 // a location must be a plain relative path inside it; bytes given in memory
 // or through a reader have no folder, and ONNX Runtime would resolve the
 // location against the process's working folder, so none is allowed.
-void check_external_data(const void* data, size_t size, const std::string& where, bool in_folder) {
+// Returns the locations (for the folder's symbolic-link check).
+std::vector<std::string> check_external_data(const void* data, size_t size, const std::string& where,
+                                             bool in_folder) {
+  std::vector<std::string> locations;
   for (const onnx_scan::ExternalTensor& t : onnx_scan::external_tensors(data, size, where)) {
     const std::string tensor = "tensor " + in_quotes(t.tensor) + " keeps its data in external file " +
                                in_quotes(t.location);
@@ -47,7 +50,9 @@ void check_external_data(const void* data, size_t size, const std::string& where
       throw Error(where + ": " + tensor + ", whose location " + reason +
                   " (expected a relative path inside the package folder)");
     }
+    locations.push_back(t.location);
   }
+  return locations;
 }
 
 
@@ -69,18 +74,40 @@ class FolderSource final : public FileSource {
 
   std::string where(const std::string& file) const override { return (std::filesystem::path(folder_) / file).string(); }
   std::string read(const std::string& file, const std::string& expected, size_t max_bytes) const override {
+    check_inside(file, file);
     return read_file(where(file), expected, max_bytes);
   }
   OnnxSession session(std::shared_ptr<OnnxEnvironment> env, const std::string& file,
                       const SessionOptions& options) const override {
+    check_inside(file, file);
     // Scanned first: every external-data location must stay in the folder.
     const std::string bytes = read_file(where(file), "an ONNX model", kMaxGraphBytes);
-    check_external_data(bytes.data(), bytes.size(), where(file), true);
+    const std::filesystem::path graph_dir = std::filesystem::path(file).parent_path();
+    for (const std::string& location : check_external_data(bytes.data(), bytes.size(), where(file), true)) {
+      check_inside((graph_dir / location).generic_string(), file);
+    }
     // By path, so ORT finds external weight files next to the graph.
     return OnnxSession::from_file(std::move(env), where(file), options);
   }
 
  private:
+  // The names are plain relative paths (check_file_name), but a symbolic
+  // link inside the folder could still lead out of it: what `relative`
+  // resolves to must lie inside the folder. A file that does not exist is
+  // left to the read that follows (it names it).
+  void check_inside(const std::string& relative, const std::string& named_by) const {
+    std::error_code ec;
+    const std::filesystem::path root = std::filesystem::weakly_canonical(folder_, ec);
+    if (ec) return;
+    const std::filesystem::path target = std::filesystem::weakly_canonical(root / relative, ec);
+    if (ec) return;
+    const std::filesystem::path inside = target.lexically_relative(root);
+    if (inside.empty() || *inside.begin() == "..") {
+      throw Error(where(named_by) + ": " + in_quotes(relative) + " resolves to " + target.string() +
+                  ", outside the package folder (a symbolic link?)");
+    }
+  }
+
   std::string folder_;
 };
 
@@ -473,6 +500,7 @@ struct ModelPackage::Impl {
   std::shared_ptr<OnnxEnvironment> env;
   // Sessions after the environment: destroyed first.
   std::unique_ptr<OnnxSession> history;
+  std::unique_ptr<OnnxSession> goals;
   std::unique_ptr<OnnxSession> denoiser;
   std::unique_ptr<OnnxSession> decoder;
   std::unique_ptr<OnnxSession> encoder;
@@ -697,7 +725,7 @@ void ModelPackage::Impl::parse(const Manifest& m) {
   }
 
   // --- graphs -----------------------------------------------------------------------------------
-  for (const char* key : {"history", "denoiser", "decoder", "encoder", "text_encoder"}) {
+  for (const char* key : {"history", "goals", "denoiser", "decoder", "encoder", "text_encoder"}) {
     GraphSpec spec;
     spec.key = key;
     const std::string base = std::string("graphs.") + key;
@@ -732,6 +760,18 @@ std::vector<ExpectedGraph> ModelPackage::Impl::contract() const {
   out.push_back({"history",
                  {{"history", "float32", {b, symbolic("H"), dd}}, {"history_mask", "float32", {b, symbolic("H")}}},
                  {{"history_kv", "float32", keys_values}}});
+  const ExpectedDim stages = fixed(ds.stages(), "stages (denoiser.two_stage)");
+  const ExpectedDim width = fixed(ds.width, "denoiser.width");
+  const ExpectedDim root_dim = fixed(tokens.root_token_dim(), "5 * tokens.patch");
+  out.push_back({"goals",
+                 {{"window_goal", "float32", {b, cd, gd}},
+                  {"window_goal_mask", "float32", {b, cd, gd}},
+                  {"future_goal", "float32", {b, symbolic("F"), gd}},
+                  {"future_goal_mask", "float32", {b, symbolic("F"), gd}}},
+                 {{"window_root_goal", "float32", {b, cd, root_dim}},
+                  {"window_root_mask", "float32", {b, cd, root_dim}},
+                  {"window_goal_embedding", "float32", {b, stages, cd, width}},
+                  {"future_embedding", "float32", {b, stages, symbolic("F"), width}}}});
   out.push_back({"denoiser",
                  {{"x_t", "float32", {b, cd, dd}},
                   {"step", "int64", {b}},
@@ -739,10 +779,10 @@ std::vector<ExpectedGraph> ModelPackage::Impl::contract() const {
                   {"text_keep", "float32", {b}},
                   {"history_kv", "float32", keys_values},
                   {"history_mask", "float32", {b, symbolic("H")}},
-                  {"window_goal", "float32", {b, cd, gd}},
-                  {"window_goal_mask", "float32", {b, cd, gd}},
-                  {"future_goal", "float32", {b, symbolic("F"), gd}},
-                  {"future_goal_mask", "float32", {b, symbolic("F"), gd}},
+                  {"window_root_goal", "float32", {b, cd, root_dim}},
+                  {"window_root_mask", "float32", {b, cd, root_dim}},
+                  {"window_goal_embedding", "float32", {b, stages, cd, width}},
+                  {"future_embedding", "float32", {b, stages, symbolic("F"), width}},
                   {"future_mask", "float32", {b, symbolic("F")}},
                   {"constraint_keep", "float32", {b}}},
                  {{"x0", "float32", {b, cd, dd}}}});
@@ -797,6 +837,7 @@ std::unique_ptr<ModelPackage::Impl> ModelPackage::Impl::load(const FileSource& s
     return session;
   };
   impl->history = load_graph("history");
+  impl->goals = load_graph("goals");
   impl->denoiser = load_graph("denoiser");
   impl->decoder = load_graph("decoder");
   impl->encoder = load_graph("encoder");
@@ -930,6 +971,7 @@ const SamplingDefaults& ModelPackage::sampling_defaults() const { return impl().
 const TextSettings& ModelPackage::text_settings() const { return impl().text; }
 size_t ModelPackage::text_embedding_size() const { return impl().text.embedding_size; }
 const OnnxSession& ModelPackage::history() const { return *impl().history; }
+const OnnxSession& ModelPackage::goals() const { return *impl().goals; }
 const OnnxSession& ModelPackage::denoiser() const { return *impl().denoiser; }
 const DenoiserSizes& ModelPackage::denoiser_sizes() const { return impl().denoiser_sizes; }
 const OnnxSession& ModelPackage::decoder() const { return *impl().decoder; }

@@ -35,8 +35,9 @@
 namespace ardy {
 
 inline constexpr const char* kPackageFormat = "ardy-model-package";
-// 2: the history's keys and values come from the history graph, once per
-// window (1: the denoiser took the history tokens at every call).
+// 2: the history's keys and values (history graph) and the goals' share of
+// the input projections (goals graph) come once per window (1: the denoiser
+// took the history tokens and the goals at every call).
 inline constexpr int kPackageFormatVersion = 2;
 
 // tokens.* of model.json (docs/model_contract.md section 1).
@@ -85,7 +86,7 @@ struct SamplingDefaults {
 
 // The names and signature of one graph (graphs.<key> of model.json).
 struct GraphSpec {
-  std::string key;   // "history", "denoiser", "decoder", "encoder", "text_encoder"
+  std::string key;   // "history", "goals", "denoiser", "decoder", "encoder", "text_encoder"
   std::string file;  // e.g. "denoiser.onnx"
   std::vector<TensorInfo> inputs;
   std::vector<TensorInfo> outputs;
@@ -165,9 +166,11 @@ class ModelPackage {
   const TextSettings& text_settings() const;
   size_t text_embedding_size() const;  // E: denoiser text_embedding width
 
-  // The history's keys and values (once per window), then the denoiser that
-  // takes them (every step, every guidance row).
+  // The history's keys and values and the goals' share of the input
+  // projections (both once per window), then the denoiser that takes them
+  // (every step, every guidance row).
   const OnnxSession& history() const;
+  const OnnxSession& goals() const;
   const OnnxSession& denoiser() const;
   const OnnxSession& decoder() const;
   const OnnxSession& encoder() const;

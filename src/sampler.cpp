@@ -290,10 +290,75 @@ HistoryKeysValues history_keys_values(const ModelPackage& package, const std::ve
   return out;
 }
 
+// What the goals of the windows with constraint rows contribute to every
+// step, from one goals graph call: window_root_goal, window_root_mask
+// [Wc, C, 5P], window_goal_embedding [Wc, stages, C, W], future_embedding
+// [Wc, stages, F, W], with F the longest future of those windows.
+struct GoalEmbeddings {
+  std::vector<size_t> row_of;  // window -> its row in the outputs (only windows with a constraint row)
+  size_t future = 0;
+  std::vector<Tensor> outputs;  // kGoalOutputs order
+};
+
+const char* const kGoalOutputs[] = {"window_root_goal", "window_root_mask", "window_goal_embedding",
+                                    "future_embedding"};
+
+bool has_constraint_row(const std::vector<GuidanceRow>& rows) {
+  return std::any_of(rows.begin(), rows.end(), [](const GuidanceRow& row) { return row.constraint_keep != 0.0f; });
+}
+
+GoalEmbeddings goal_embeddings(const ModelPackage& package, const std::vector<const WindowInput*>& windows,
+                               const std::vector<std::vector<GuidanceRow>>& rows_of) {
+  const TokenSizes& t = package.tokens();
+  const size_t c = t.window, pm = t.goal_dim;
+  GoalEmbeddings out;
+  out.row_of.assign(windows.size(), 0);
+  std::vector<size_t> members;
+  for (size_t w = 0; w < windows.size(); ++w) {
+    if (!has_constraint_row(rows_of[w])) continue;
+    out.row_of[w] = members.size();
+    members.push_back(w);
+    out.future = std::max(out.future, windows[w]->goals.future_tokens);
+  }
+  if (members.empty()) return out;
+  const size_t count = members.size(), f = out.future;
+  std::vector<float> window_goal(count * c * pm), window_goal_mask(count * c * pm);
+  std::vector<float> future_goal(count * f * pm, 0.0f), future_goal_mask(count * f * pm, 0.0f);
+  for (size_t r = 0; r < count; ++r) {
+    const WindowGoals& goals = windows[members[r]]->goals;
+    std::copy(goals.window_goal.begin(), goals.window_goal.end(), window_goal.begin() + r * c * pm);
+    std::copy(goals.window_goal_mask.begin(), goals.window_goal_mask.end(), window_goal_mask.begin() + r * c * pm);
+    // Future at the front: padding at the back.
+    std::copy(goals.future_goal.begin(), goals.future_goal.end(), future_goal.begin() + r * f * pm);
+    std::copy(goals.future_goal_mask.begin(), goals.future_goal_mask.end(), future_goal_mask.begin() + r * f * pm);
+  }
+  const auto ri = static_cast<int64_t>(count), ci = static_cast<int64_t>(c), pmi = static_cast<int64_t>(pm);
+  const auto fi = static_cast<int64_t>(f);
+  std::vector<std::pair<std::string, Tensor>> inputs;
+  inputs.emplace_back("window_goal", Tensor::float32({ri, ci, pmi}, std::move(window_goal)));
+  inputs.emplace_back("window_goal_mask", Tensor::float32({ri, ci, pmi}, std::move(window_goal_mask)));
+  inputs.emplace_back("future_goal", Tensor::float32({ri, fi, pmi}, std::move(future_goal)));
+  inputs.emplace_back("future_goal_mask", Tensor::float32({ri, fi, pmi}, std::move(future_goal_mask)));
+  out.outputs = package.goals().run(inputs, {std::begin(kGoalOutputs), std::end(kGoalOutputs)});
+  const DenoiserSizes& sizes = package.denoiser_sizes();
+  const auto si = static_cast<int64_t>(sizes.stages()), wi = static_cast<int64_t>(sizes.width);
+  const auto root = static_cast<int64_t>(t.root_token_dim());
+  const std::vector<int64_t> expected[] = {{ri, ci, root}, {ri, ci, root}, {ri, si, ci, wi}, {ri, si, fi, wi}};
+  for (size_t i = 0; i < out.outputs.size(); ++i) {
+    if (out.outputs[i].shape != expected[i]) {
+      throw Error(package.goals().name() + ": output '" + kGoalOutputs[i] + "' has shape " +
+                  shape_text(out.outputs[i].shape) + ", expected " + shape_text(expected[i]));
+    }
+    check_finite_output(package.goals().name(), kGoalOutputs[i], out.outputs[i].data);
+  }
+  return out;
+}
+
 // Guidance rows that share one denoiser call per step. Rows whose constraints
 // are off (constraint_keep 0) ignore every goal and future token, so they go
-// in a call with no future tokens at all: exact, since the graph masks those
-// tokens out of their attention, and they are most of a window's tokens.
+// in a call with no future tokens and zero goal inputs: exact, since the
+// graph masks those tokens out of their attention and multiplies the goals
+// by constraint_keep, and future tokens are most of a window's tokens.
 struct RowGroup {
   std::vector<std::pair<size_t, size_t>> members;  // (window, guidance row) per batch row
   std::unique_ptr<RepeatedRun> run;
@@ -302,26 +367,27 @@ struct RowGroup {
 
 RowGroup make_row_group(const ModelPackage& package, const std::vector<const WindowInput*>& windows,
                         const std::vector<std::vector<GuidanceRow>>& rows_of, const HistoryKeysValues& history,
-                        bool constrained) {
+                        const GoalEmbeddings& goals, bool constrained) {
   const TokenSizes& t = package.tokens();
-  const size_t c = t.window, d = t.token_dim, pm = t.goal_dim, e = package.text_embedding_size();
+  const DenoiserSizes& sizes = package.denoiser_sizes();
+  const size_t c = t.window, d = t.token_dim, e = package.text_embedding_size(), root = t.root_token_dim();
+  const size_t stages = sizes.stages(), width = sizes.width;
   RowGroup group;
-  size_t f_max = 0;
   for (size_t w = 0; w < windows.size(); ++w) {
     for (size_t k = 0; k < rows_of[w].size(); ++k) {
-      if ((rows_of[w][k].constraint_keep != 0.0f) != constrained) continue;
-      group.members.emplace_back(w, k);
-      if (constrained) f_max = std::max(f_max, windows[w]->goals.future_tokens);
+      if ((rows_of[w][k].constraint_keep != 0.0f) == constrained) group.members.emplace_back(w, k);
     }
   }
   const size_t rows = group.members.size();
   if (rows == 0) return group;
+  const size_t f = constrained ? goals.future : 0;
   const size_t h_max = history.tokens, kv = history.values_per_window;
+  const size_t root_values = c * root, window_values = stages * c * width, future_values = stages * f * width;
   std::vector<float> text_embedding(rows * e, 0.0f), text_keep(rows, 0.0f), constraint_keep(rows, 0.0f);
   std::vector<float> keys_values(rows * kv), history_mask(rows * h_max);
-  std::vector<float> window_goal(rows * c * pm, 0.0f), window_goal_mask(rows * c * pm, 0.0f);
-  std::vector<float> future_goal(rows * f_max * pm, 0.0f), future_goal_mask(rows * f_max * pm, 0.0f);
-  std::vector<float> future_mask(rows * f_max, 0.0f);
+  std::vector<float> root_goal(rows * root_values, 0.0f), root_mask(rows * root_values, 0.0f);
+  std::vector<float> window_embedding(rows * window_values, 0.0f), future_embedding(rows * future_values, 0.0f);
+  std::vector<float> future_mask(rows * f, 0.0f);
   for (size_t r = 0; r < rows; ++r) {
     const auto [w, k] = group.members[r];
     const WindowInput& in = *windows[w];
@@ -331,17 +397,22 @@ RowGroup make_row_group(const ModelPackage& package, const std::vector<const Win
     constraint_keep[r] = row.constraint_keep;
     std::copy_n(history.keys_values.begin() + static_cast<std::ptrdiff_t>(w * kv), kv, keys_values.begin() + r * kv);
     std::copy_n(history.mask.begin() + static_cast<std::ptrdiff_t>(w * h_max), h_max, history_mask.begin() + r * h_max);
-    if (!constrained) continue;  // the graph zeroes goals of rows with constraint_keep 0
-    std::copy(in.goals.window_goal.begin(), in.goals.window_goal.end(), window_goal.begin() + r * c * pm);
-    std::copy(in.goals.window_goal_mask.begin(), in.goals.window_goal_mask.end(), window_goal_mask.begin() + r * c * pm);
-    // Future at the front: padding at the back.
-    std::copy(in.goals.future_goal.begin(), in.goals.future_goal.end(), future_goal.begin() + r * f_max * pm);
-    std::copy(in.goals.future_goal_mask.begin(), in.goals.future_goal_mask.end(),
-              future_goal_mask.begin() + r * f_max * pm);
-    std::copy(in.goals.future_mask.begin(), in.goals.future_mask.end(), future_mask.begin() + r * f_max);
+    if (!constrained) continue;  // the graph zeroes the goals of rows with constraint_keep 0
+    const size_t g = goals.row_of[w];
+    const auto copy_block = [&](size_t output, size_t values, std::vector<float>& to) {
+      std::copy_n(goals.outputs[output].data.begin() + static_cast<std::ptrdiff_t>(g * values), values,
+                  to.begin() + static_cast<std::ptrdiff_t>(r * values));
+    };
+    copy_block(0, root_values, root_goal);
+    copy_block(1, root_values, root_mask);
+    copy_block(2, window_values, window_embedding);
+    copy_block(3, future_values, future_embedding);
+    // Future at the front: padding at the back (masked).
+    std::copy(in.goals.future_mask.begin(), in.goals.future_mask.end(), future_mask.begin() + r * f);
   }
-  const auto ri = static_cast<int64_t>(rows), ci = static_cast<int64_t>(c), pmi = static_cast<int64_t>(pm);
-  const auto hi = static_cast<int64_t>(h_max), fi = static_cast<int64_t>(f_max);
+  const auto ri = static_cast<int64_t>(rows), ci = static_cast<int64_t>(c), si = static_cast<int64_t>(stages);
+  const auto hi = static_cast<int64_t>(h_max), fi = static_cast<int64_t>(f), wi = static_cast<int64_t>(width);
+  const auto rooti = static_cast<int64_t>(root);
   std::vector<int64_t> kv_shape{ri};
   kv_shape.insert(kv_shape.end(), history.row_shape.begin(), history.row_shape.end());
   std::vector<std::pair<std::string, Tensor>> inputs;
@@ -352,10 +423,10 @@ RowGroup make_row_group(const ModelPackage& package, const std::vector<const Win
   inputs.emplace_back("text_keep", Tensor::float32({ri}, std::move(text_keep)));
   inputs.emplace_back("history_kv", Tensor::float32(std::move(kv_shape), std::move(keys_values)));
   inputs.emplace_back("history_mask", Tensor::float32({ri, hi}, std::move(history_mask)));
-  inputs.emplace_back("window_goal", Tensor::float32({ri, ci, pmi}, std::move(window_goal)));
-  inputs.emplace_back("window_goal_mask", Tensor::float32({ri, ci, pmi}, std::move(window_goal_mask)));
-  inputs.emplace_back("future_goal", Tensor::float32({ri, fi, pmi}, std::move(future_goal)));
-  inputs.emplace_back("future_goal_mask", Tensor::float32({ri, fi, pmi}, std::move(future_goal_mask)));
+  inputs.emplace_back("window_root_goal", Tensor::float32({ri, ci, rooti}, std::move(root_goal)));
+  inputs.emplace_back("window_root_mask", Tensor::float32({ri, ci, rooti}, std::move(root_mask)));
+  inputs.emplace_back("window_goal_embedding", Tensor::float32({ri, si, ci, wi}, std::move(window_embedding)));
+  inputs.emplace_back("future_embedding", Tensor::float32({ri, si, fi, wi}, std::move(future_embedding)));
   inputs.emplace_back("future_mask", Tensor::float32({ri, fi}, std::move(future_mask)));
   inputs.emplace_back("constraint_keep", Tensor::float32({ri}, std::move(constraint_keep)));
   group.run = std::make_unique<RepeatedRun>(package.denoiser(), std::move(inputs), std::vector<std::string>{"x0"});
@@ -401,9 +472,11 @@ std::vector<std::vector<float>> sample_windows(const ModelPackage& package,
 
   check_cancel(cancel);
   const HistoryKeysValues history = history_keys_values(package, windows, h_max);
+  check_cancel(cancel);
+  const GoalEmbeddings goals = goal_embeddings(package, windows, rows_of);
   std::vector<RowGroup> groups;
   for (const bool constrained : {false, true}) {
-    RowGroup group = make_row_group(package, windows, rows_of, history, constrained);
+    RowGroup group = make_row_group(package, windows, rows_of, history, goals, constrained);
     if (!group.members.empty()) groups.push_back(std::move(group));
   }
 

@@ -144,12 +144,13 @@ struct WindowResult {
 };
 
 // DDIM for a batch of windows (sampler.py sample_windows). The history
-// graph computes every window's history keys and values once; then each step
-// makes at most two denoiser calls: the rows without constraints (D0,
-// D_text) of all windows with no future tokens, and the constraint rows with
-// them (the graph ignores future tokens in rows whose constraint_keep is 0,
-// so this matches one call with every row). Inputs that do not change between
-// steps are checked once. noises[i] is window i's initial noise [C, D]. Every
+// graph computes every window's history keys and values once, the goals
+// graph what the goals of the windows with constraints contribute, once;
+// then each step makes at most two denoiser calls: the rows without
+// constraints (D0, D_text) of all windows with no future tokens and no goals,
+// and the constraint rows with them (the graph ignores goals and future
+// tokens in rows whose constraint_keep is 0, so this matches one call with
+// every row). Inputs that do not change between steps are checked once. noises[i] is window i's initial noise [C, D]. Every
 // window must use the same number of steps. Returns each window's clean
 // tokens x0 [C, D] (normalized, model frame).
 std::vector<std::vector<float>> sample_windows(const ModelPackage& package,

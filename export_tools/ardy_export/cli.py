@@ -136,7 +136,7 @@ def build_parser() -> argparse.ArgumentParser:
         "recover-checkpoint",
         help="rebuild a slim denoiser checkpoint from a model package's own graphs",
         description=(
-            "Read the denoiser weights out of a package's ONNX graphs (any format version) "
+            "Read the denoiser weights out of a package's ONNX graphs (format version 1 or 2) "
             "into a slim checkpoint that 'ardy-export export' takes; the configs, tokenizer "
             "and statistics come from a base checkpoint of the same architecture (e.g. the "
             "one the package was fine-tuned from). Nothing is written unless the rebuilt "

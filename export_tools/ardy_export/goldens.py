@@ -29,11 +29,10 @@ import onnxruntime as ort
 import torch
 
 from ardy_export.models.graphs import (
-    DENOISER_INPUTS,
     DENOISER_MODULE_INPUTS,
     example_denoiser_inputs,
 )
-from ardy_export.package import GRAPH_FILES, export_package
+from ardy_export.package import GRAPH_FILES, export_package, run_denoiser_graphs
 from ardy_export.sampling.constraints import (
     Constraint,
     FootContact,
@@ -218,10 +217,8 @@ def _graph_goldens(
         out.add("encoder/output/latent", bundle.encoder_graph(body))
     # The ONNX graphs must give the same numbers (export_package checked it); record both so
     # the C++ test can tell a graph problem from a runtime one.
-    feeds = {n: t.numpy() for n, t in zip(DENOISER_INPUTS, inputs, strict=True)}
-    history = {"history": feeds.pop("history_kv"), "history_mask": feeds["history_mask"]}
-    feeds["history_kv"] = session("history").run(None, history)[0]
-    out.add("denoiser/onnx_output/x0", session("denoiser").run(None, feeds)[0])
+    feeds = {n: t.numpy() for n, t in zip(DENOISER_MODULE_INPUTS, inputs, strict=True)}
+    out.add("denoiser/onnx_output/x0", run_denoiser_graphs(package, feeds))
     ids, mask = embedder.tokenize(PROMPTS)
     out.add("text/input/input_ids", ids)
     out.add("text/input/attention_mask", mask)

@@ -1,6 +1,7 @@
 """The model package (design.md section 6): model.json plus the ONNX graphs.
 
-``export_package`` writes ``history.onnx``, ``denoiser.onnx``, ``decoder.onnx``, ``encoder.onnx``,
+``export_package`` writes ``history.onnx``, ``goals.onnx``, ``denoiser.onnx``, ``decoder.onnx``,
+``encoder.onnx``,
 ``text_encoder.onnx`` and ``vocab.txt`` and a ``model.json`` that carries everything the
 runtime needs (nothing about the model is hard-coded in C++), then runs every graph in ONNX
 Runtime against PyTorch for several history, future and token lengths and refuses the
@@ -29,12 +30,16 @@ from ardy_export.models.graphs import (
     DECODER_INPUTS,
     DECODER_OUTPUTS,
     DENOISER_INPUTS,
+    DENOISER_MODULE_INPUTS,
     DENOISER_OUTPUTS,
     ENCODER_INPUTS,
     ENCODER_OUTPUTS,
+    GOALS_INPUTS,
+    GOALS_OUTPUTS,
     HISTORY_INPUTS,
     HISTORY_OUTPUTS,
     DenoiserGraph,
+    GoalsGraph,
     HistoryGraph,
     cached_inputs,
     example_denoiser_inputs,
@@ -44,14 +49,16 @@ from ardy_export.sampling.sampler import ModelBundle
 from ardy_export.text.export import export_text_encoder
 
 FORMAT = "ardy-model-package"
-# 2: the history's keys and values come from history.onnx, once per window (1: the denoiser
-# took the history tokens and recomputed them at every call).
+# 2: the history's keys and values (history.onnx) and the goals' share of the input
+# projections (goals.onnx) are computed once per window (1: the denoiser took the history
+# tokens and the goals and recomputed both at every call).
 FORMAT_VERSION = 2
 OPSET = 18
 PARITY_ATOL = 1e-4
 MODEL_FILE = "model.json"
 GRAPH_FILES = {
     "history": "history.onnx",
+    "goals": "goals.onnx",
     "denoiser": "denoiser.onnx",
     "decoder": "decoder.onnx",
     "encoder": "encoder.onnx",
@@ -76,6 +83,17 @@ def _dynamic_shapes(names: Sequence[str], axes: dict[str, dict[int, str]]) -> tu
     )
 
 
+def _goals_axes() -> dict[str, dict[int, str]]:
+    batch = {0: "batch"}
+    future = {0: "batch", 1: "future"}
+    return {
+        "window_goal": batch,
+        "window_goal_mask": batch,
+        "future_goal": future,
+        "future_goal_mask": future,
+    }
+
+
 def _denoiser_axes() -> dict[str, dict[int, str]]:
     batch = {0: "batch"}
     return {
@@ -85,10 +103,10 @@ def _denoiser_axes() -> dict[str, dict[int, str]]:
         "text_keep": batch,
         "history_kv": {0: "batch", 4: "history"},
         "history_mask": {0: "batch", 1: "history"},
-        "window_goal": batch,
-        "window_goal_mask": batch,
-        "future_goal": {0: "batch", 1: "future"},
-        "future_goal_mask": {0: "batch", 1: "future"},
+        "window_root_goal": batch,
+        "window_root_mask": batch,
+        "window_goal_embedding": batch,
+        "future_embedding": {0: "batch", 2: "future"},
         "future_mask": {0: "batch", 1: "future"},
         "constraint_keep": batch,
     }
@@ -175,6 +193,30 @@ def run_history_graph(package: Path, history: np.ndarray, history_mask: np.ndarr
     return keys_values
 
 
+def run_denoiser_graphs(
+    package: Path,
+    feeds: dict[str, np.ndarray],
+    check: dict[str, float] | None = None,
+    expected: dict[str, torch.Tensor] | None = None,
+    where: str = "",
+) -> np.ndarray:
+    """x0 of ``Denoiser.forward`` inputs (DENOISER_MODULE_INPUTS names) through the package's
+    graphs as the runtime chains them: history.onnx, goals.onnx, then denoiser.onnx. With
+    ``check`` and ``expected`` (the cached inputs PyTorch computes), the history and goals
+    graphs' outputs are checked too and their worst errors kept in ``check``."""
+    inputs = {name: feeds[name] for name in DENOISER_INPUTS if name in feeds}
+    inputs["history_kv"] = run_history_graph(package, feeds["history"], feeds["history_mask"])
+    goals = _run_onnx(package / GRAPH_FILES["goals"], {n: feeds[n] for n in GOALS_INPUTS})
+    inputs.update(zip(GOALS_OUTPUTS, goals, strict=True))
+    if check is not None and expected is not None:
+        for graph, names in (("history", HISTORY_OUTPUTS), ("goals", GOALS_OUTPUTS)):
+            for name in names:
+                error = _check(f"{graph} ({name})", expected[name], inputs[name], where)
+                check[graph] = max(check[graph], error)
+    (x0,) = _run_onnx(package / GRAPH_FILES["denoiser"], inputs)
+    return x0
+
+
 def _check(name: str, expected: torch.Tensor, found: np.ndarray, where: str) -> float:
     error = float(np.max(np.abs(expected.numpy() - found))) if found.size else 0.0
     if tuple(found.shape) != tuple(expected.shape) or not error <= PARITY_ATOL:
@@ -208,6 +250,15 @@ def export_graphs(bundle: ModelBundle, out_dir: Path) -> dict[str, float]:
         HISTORY_INPUTS,
         HISTORY_OUTPUTS,
         {"history": history_axes, "history_mask": history_axes},
+    )
+    goals_at = DENOISER_MODULE_INPUTS.index(GOALS_INPUTS[0])
+    _export(
+        GoalsGraph(bundle.denoiser),
+        example[goals_at : goals_at + len(GOALS_INPUTS)],
+        out_dir / GRAPH_FILES["goals"],
+        GOALS_INPUTS,
+        GOALS_OUTPUTS,
+        _goals_axes(),
     )
     with torch.no_grad():
         cached_example = cached_inputs(bundle.denoiser, example)
@@ -251,20 +302,17 @@ def check_graphs(bundle: ModelBundle, out_dir: Path) -> dict[str, float]:
     The denoiser is checked as the runtime calls it: history.onnx, then denoiser.onnx with
     its keys and values, against the uncached ``Denoiser.forward`` (the reference); the
     history graph alone against ``history_keys_values``."""
-    worst = {"history": 0.0, "denoiser": 0.0, "decoder": 0.0, "encoder": 0.0}
+    worst = {"history": 0.0, "goals": 0.0, "denoiser": 0.0, "decoder": 0.0, "encoder": 0.0}
     with torch.no_grad():
         for seed, (history, future) in enumerate(PARITY_HISTORY_FUTURE):
             inputs = example_denoiser_inputs(bundle.denoiser, 3, history, future, seed=seed + 10)
+            # A row without constraints: the graph zeroes what the goals graph gave it.
+            inputs[DENOISER_MODULE_INPUTS.index("constraint_keep")][1] = 0.0
             where = f"history {history}, future {future}"
             expected = bundle.denoiser(*inputs)
-            expected_kv = bundle.denoiser.history_keys_values(inputs[4], inputs[5])
-            keys_values = run_history_graph(out_dir, inputs[4].numpy(), inputs[5].numpy())
-            worst["history"] = max(
-                worst["history"], _check("history", expected_kv, keys_values, where)
-            )
-            feeds = {n: t.numpy() for n, t in zip(DENOISER_INPUTS, inputs, strict=True)}
-            feeds["history_kv"] = keys_values
-            (found,) = _run_onnx(out_dir / GRAPH_FILES["denoiser"], feeds)
+            cached = dict(zip(DENOISER_INPUTS, cached_inputs(bundle.denoiser, inputs), strict=True))
+            feeds = {n: t.numpy() for n, t in zip(DENOISER_MODULE_INPUTS, inputs, strict=True)}
+            found = run_denoiser_graphs(out_dir, feeds, check=worst, expected=cached, where=where)
             worst["denoiser"] = max(worst["denoiser"], _check("denoiser", expected, found, where))
         for tokens in PARITY_TOKENS:
             tok = _tokenizer_examples(bundle, tokens, seed=tokens)

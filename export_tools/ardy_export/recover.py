@@ -10,7 +10,9 @@ the package was fine-tuned from; the rebuilt model must reproduce the package's 
 
 Weights named after their parameter are taken by name. The exporter stores the weight of a
 ``Linear`` as the transposed right-hand side of a ``MatMul`` under a generated name; it is
-found through the ``Add`` of the same layer's named bias.
+found through the ``Add`` of the same layer's named bias. Should a format version 2 graph
+hold only the token part of a window projection (denoiser.onnx), its goal part (no bias)
+is read off goals.onnx by feeding it one unit goal entry per window token.
 """
 
 from __future__ import annotations
@@ -26,8 +28,9 @@ import onnxruntime as ort
 import torch
 from onnx import numpy_helper
 
+from ardy_export.models.denoiser import DenoiserConfig
 from ardy_export.models.graphs import DENOISER_MODULE_INPUTS, example_denoiser_inputs
-from ardy_export.package import run_history_graph
+from ardy_export.package import run_denoiser_graphs
 from ardy_export.sampling.sampler import ModelBundle
 from ardy_export.training.common import save_checkpoint
 
@@ -44,6 +47,8 @@ def graph_weights(path: Path) -> dict[str, np.ndarray]:
     """Parameter name -> value for every weight of one exported graph that can be named."""
     model = onnx.load(str(path))
     initializers = {i.name: numpy_helper.to_array(i) for i in model.graph.initializer}
+    # The graph wrappers (models.graphs) hold the denoiser as ``denoiser``.
+    initializers = {name.removeprefix("denoiser."): value for name, value in initializers.items()}
     weights = {name: value for name, value in initializers.items() if "." in name}
     consumers: dict[str, list[onnx.NodeProto]] = {}
     for node in model.graph.node:
@@ -53,10 +58,48 @@ def graph_weights(path: Path) -> dict[str, np.ndarray]:
         if node.op_type != "MatMul" or node.input[1] not in initializers:
             continue
         for add in consumers.get(node.output[0], []):
-            bias = next((n for n in add.input if n.endswith(".bias")), None)
+            bias = next(
+                (n.removeprefix("denoiser.") for n in add.input if n.endswith(".bias")), None
+            )
             if add.op_type == "Add" and bias is not None and bias in initializers:
                 weights[bias[: -len(".bias")] + ".weight"] = initializers[node.input[1]].T
     return weights
+
+
+def probed_goal_weights(package: Path, config: DenoiserConfig) -> list[np.ndarray]:
+    """Per stage, the goal part of ``window_proj.weight`` [W, window_goal_dim + goal_dim],
+    from goals.onnx: its window_goal_embedding is linear in (goal, mask) without a bias, so
+    a unit entry gives one column."""
+    c = config
+    pm, tokens = c.goal_dim, c.window_tokens
+    inputs = 2 * pm  # goal entries, then mask entries
+    batch = -(-inputs // tokens)
+    goal = np.zeros((batch * tokens, 2 * pm), dtype=np.float32)
+    goal[np.arange(inputs), np.arange(inputs)] = 1.0
+    goal = goal.reshape(batch, tokens, 2 * pm)
+    feeds = {
+        "window_goal": goal[..., :pm],
+        "window_goal_mask": goal[..., pm:],
+        "future_goal": np.zeros((batch, 0, pm), dtype=np.float32),
+        "future_goal_mask": np.zeros((batch, 0, pm), dtype=np.float32),
+    }
+    options = ort.SessionOptions()
+    options.intra_op_num_threads = 1
+    session = ort.InferenceSession(
+        str(package / "goals.onnx"), options, providers=["CPUExecutionProvider"]
+    )
+    names = [o.name for o in session.get_outputs()]
+    embedding = session.run(None, feeds)[names.index("window_goal_embedding")]
+    stages = embedding.shape[1]
+    # Column j of the probe <- input entry j (goal entries 0..PM-1, then the mask's).
+    per_entry = embedding.transpose(1, 0, 2, 3).reshape(stages, batch * tokens, -1)[:, :inputs]
+    if c.window_goal_input == "full":
+        keep = np.arange(inputs)
+    else:  # only the body part of the goal entries reaches the projection
+        entries = np.arange(pm)
+        body = entries[entries % c.feature_dim >= c.root_dim]
+        keep = np.concatenate((body, pm + entries))
+    return [per_entry[stage][keep].T.copy() for stage in range(stages)]
 
 
 def _run(path: Path, feeds: dict[str, np.ndarray]) -> np.ndarray:
@@ -89,8 +132,8 @@ def _denoiser_reference(package: Path, inputs: Sequence[torch.Tensor]) -> np.nda
         )
     }
     if (package / "history.onnx").is_file():
-        feeds["history_kv"] = run_history_graph(package, feeds["history"], feeds["history_mask"])
-    return _run(package / "denoiser.onnx", feeds)
+        return run_denoiser_graphs(package, feeds)
+    return _run(package / "denoiser.onnx", feeds)  # format version 1: one graph
 
 
 def recover_checkpoint(package: Path, base_checkpoint: Path, out: Path) -> dict[str, float]:
@@ -100,10 +143,26 @@ def recover_checkpoint(package: Path, base_checkpoint: Path, out: Path) -> dict[
     base = torch.load(base_checkpoint, map_location="cpu", weights_only=False)
     bundle = ModelBundle.from_state(base)
     found: dict[str, np.ndarray] = {}
-    for graph in ("history.onnx", "denoiser.onnx"):
+    for graph in ("history.onnx", "goals.onnx", "denoiser.onnx"):
         if (package / graph).is_file():
             found.update(graph_weights(package / graph))
     state = bundle.denoiser.state_dict()
+    prefixes = ["root_stage", "body_stage"] if bundle.config.two_stage else ["joint_stage"]
+    token_dim = bundle.config.token_dim
+    split = [f"{prefix}.window_proj.weight" for prefix in prefixes]
+    if all(found.get(name, np.zeros((0, 0))).shape[1:] == (token_dim,) for name in split):
+        # Format 2 with the window projection stored split: the token part (denoiser.onnx)
+        # and the goal part (goals.onnx).
+        goal_parts = probed_goal_weights(package, bundle.config)
+        for name, goal_part in zip(split, goal_parts, strict=True):
+            found[name] = np.concatenate((found[name], goal_part), axis=1)
+    extra = [name for name in found if name.split(".")[0] in prefixes and name not in state]
+    if extra:
+        raise RecoverError(
+            f"{package}: the graphs hold {len(extra)} weights that the base checkpoint's "
+            f"architecture does not have (first: {extra[0]}); is the base of the same "
+            "architecture?"
+        )
     missing = [name for name in state if name not in found]
     if missing:
         raise RecoverError(

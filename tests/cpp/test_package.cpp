@@ -15,6 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "onnx_external_data.hpp"
 #include "package.hpp"
 #include "support/error_message.hpp"
 #include "support/goldens.hpp"
@@ -29,8 +30,8 @@ using nlohmann::json;
 
 namespace {
 
-const char* const kFiles[] = {"model.json",   "history.onnx",      "denoiser.onnx", "decoder.onnx",
-                              "encoder.onnx", "text_encoder.onnx", "vocab.txt"};
+const char* const kFiles[] = {"model.json",    "history.onnx", "goals.onnx",        "denoiser.onnx",
+                              "decoder.onnx",  "encoder.onnx", "text_encoder.onnx", "vocab.txt"};
 
 const PackageFiles& tiny_files() {
   static const PackageFiles files = [] {
@@ -111,6 +112,8 @@ TEST_CASE("the tiny package loads from its folder with every value from model.js
   CHECK(package.denoiser().find_input("x_t") != nullptr);
   CHECK(package.denoiser().find_input("history_kv") != nullptr);
   CHECK(package.history().find_output("history_kv") != nullptr);
+  CHECK(package.goals().find_output("future_embedding") != nullptr);
+  CHECK(package.denoiser().find_input("window_goal") == nullptr);  // the goals graph reads the goals
   const ardy::DenoiserSizes& sizes = package.denoiser_sizes();
   CHECK(sizes.two_stage);
   CHECK(sizes.width % sizes.heads == 0);
@@ -150,7 +153,7 @@ TEST_CASE("a package read through a file reader loads only what model.json names
   CHECK(run_golden_denoiser(package) == run_golden_denoiser(from_folder));
   CHECK(asked.front() == "model.json");
   CHECK(std::find(asked.begin(), asked.end(), "goldens.bin") == asked.end());
-  CHECK(asked.size() == 7);  // model.json, five graphs, vocab.txt
+  CHECK(asked.size() == 8);  // model.json, six graphs, vocab.txt
   // A reader that fails names the file; nothing is left half-loaded.
   const ardy::PackageFileReader broken = [&](const std::string& file) -> std::string {
     if (file == "decoder.onnx") throw ardy::Error("res://tiny/decoder.onnx: file not found");
@@ -302,4 +305,171 @@ TEST_CASE("broken model.json text and the package stays loadable afterwards", "[
   const ModelPackage package = load(tiny_files());
   CHECK(package.tokens().window == 10);
   CHECK(run_golden_denoiser(package).size() == 3 * 10 * 28);
+}
+
+// --- untrusted packages: file names and external data -----------------------------------------
+
+namespace {
+
+// Protobuf wire format, enough to craft ONNX models in the tests.
+std::string varint(uint64_t v) {
+  std::string out;
+  do {
+    out.push_back(static_cast<char>((v & 0x7f) | (v > 0x7f ? 0x80 : 0)));
+    v >>= 7;
+  } while (v);
+  return out;
+}
+std::string field_bytes(int field, const std::string& payload) {
+  return varint(uint64_t(field) << 3 | 2) + varint(payload.size()) + payload;
+}
+std::string field_varint(int field, uint64_t v) { return varint(uint64_t(field) << 3) + varint(v); }
+
+// TensorProto "W" with its data in `location` (data_location EXTERNAL).
+std::string external_tensor(const std::string& location) {
+  return field_bytes(8, "W") + field_bytes(13, field_bytes(1, "location") + field_bytes(2, location)) +
+         field_varint(14, 1);
+}
+// ModelProto { ir_version, graph { initializer } }.
+std::string model_with_initializer(const std::string& tensor) {
+  return field_varint(1, 8) + field_bytes(7, field_bytes(2, "g") + field_bytes(5, tensor));
+}
+// The tensor hidden in a subgraph: graph { node { attribute { g { initializer } } } }.
+std::string model_with_nested_tensor(const std::string& tensor) {
+  const std::string subgraph = field_bytes(5, tensor);
+  const std::string attribute = field_bytes(1, "then_branch") + field_bytes(6, subgraph);
+  return field_varint(1, 8) + field_bytes(7, field_bytes(1, field_bytes(5, attribute)));
+}
+
+std::string load_with_denoiser(const std::string& bytes) {
+  PackageFiles files = tiny_files();
+  files["denoiser.onnx"] = bytes;
+  return error_message([&] { load(files); });
+}
+
+}  // namespace
+
+TEST_CASE("file names in model.json must stay inside the package", "[package][errors][security]") {
+  const auto with_file = [](const std::string& key, const std::string& name) {
+    return load_error([&](json& m) {
+      if (key == "vocab") {
+        m["text"]["vocab"] = name;
+      } else {
+        m["graphs"][key]["file"] = name;
+      }
+    });
+  };
+  CHECK_THAT(with_file("denoiser", "../denoiser.onnx"),
+             ContainsSubstring("model.json: graphs.denoiser.file is '../denoiser.onnx', which has a '..' component") &&
+                 ContainsSubstring("expected a file name inside the package"));
+  CHECK_THAT(with_file("denoiser", "graphs/../../x.onnx"), ContainsSubstring("has a '..' component"));
+  CHECK_THAT(with_file("decoder", "/etc/passwd"),
+             ContainsSubstring("graphs.decoder.file is '/etc/passwd', which is an absolute path"));
+  CHECK_THAT(with_file("encoder", "..\\encoder.onnx"), ContainsSubstring("contains a backslash"));
+  CHECK_THAT(with_file("encoder", "C:encoder.onnx"), ContainsSubstring("contains ':' (a drive letter"));
+  CHECK_THAT(with_file("history", ""), ContainsSubstring("graphs.history.file is '', which is empty"));
+  CHECK_THAT(with_file("history", "a//history.onnx"), ContainsSubstring("empty or '.' path component"));
+  CHECK_THAT(with_file("vocab", "../../vocab.txt"),
+             ContainsSubstring("text.vocab is '../../vocab.txt', which has a '..' component"));
+  // A name that merely contains two dots is a file name like any other.
+  CHECK_THAT(with_file("denoiser", "denoiser..v2.onnx"), ContainsSubstring("denoiser..v2.onnx: file not given"));
+}
+
+TEST_CASE("graphs with external data are refused from memory; from a folder, outside it", "[package][errors][security]") {
+  // From memory: any external data (ONNX Runtime would resolve it against the working folder).
+  CHECK_THAT(load_with_denoiser(model_with_initializer(external_tensor("weights.bin"))),
+             ContainsSubstring("tiny/denoiser.onnx: tensor 'W' keeps its data in external file 'weights.bin'; a package "
+                               "loaded from memory must embed every tensor") &&
+                 ContainsSubstring("graph 'denoiser'"));
+  CHECK_THAT(load_with_denoiser(model_with_nested_tensor(external_tensor("/etc/passwd"))),
+             ContainsSubstring("tensor 'W' keeps its data in external file '/etc/passwd'"));
+  // Through a reader, the same.
+  PackageFiles files = tiny_files();
+  files["encoder.onnx"] = model_with_initializer(external_tensor("../secret.bin"));
+  CHECK_THAT(error_message([&] {
+               ModelPackage::from_reader([&](const std::string& f) { return files.at(f); }, "reader", one_thread());
+             }),
+             ContainsSubstring("reader/encoder.onnx: tensor 'W' keeps its data in external file '../secret.bin'"));
+
+  // From a folder: a location must be a relative path inside it.
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "ardy_test_package_external";
+  const auto folder_error = [&](const std::string& denoiser) {
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    for (const char* name : kFiles) std::filesystem::copy_file(tiny_package_dir() + "/" + name, dir / name);
+    std::ofstream(dir / "denoiser.onnx", std::ios::binary | std::ios::trunc) << denoiser;
+    return error_message([&] { ModelPackage::from_folder(dir.string(), one_thread()); });
+  };
+  CHECK_THAT(folder_error(model_with_initializer(external_tensor("../../etc/shadow"))),
+             ContainsSubstring((dir / "denoiser.onnx").string() +
+                               ": tensor 'W' keeps its data in external file '../../etc/shadow', whose location has a "
+                               "'..' component (leaves the package)"));
+  CHECK_THAT(folder_error(model_with_nested_tensor(external_tensor("/etc/shadow"))),
+             ContainsSubstring("whose location is an absolute path"));
+  CHECK_THAT(folder_error(model_with_initializer(external_tensor("C:\\weights.bin"))),
+             ContainsSubstring("whose location contains a backslash"));
+  // data_location EXTERNAL without a location is refused too (it cannot be checked).
+  CHECK_THAT(folder_error(model_with_initializer(field_bytes(8, "W") + field_varint(14, 1))),
+             ContainsSubstring("tensor 'W' keeps its data in external file '', whose location is empty"));
+  // A relative location inside the folder passes the check (this crafted graph then fails in ONNX Runtime).
+  CHECK_THAT(folder_error(model_with_initializer(external_tensor("weights/denoiser.bin"))),
+             !ContainsSubstring("keeps its data in external file"));
+  // A symbolic link inside the folder that leads out of it, as a graph and as external data.
+  const std::filesystem::path outside = std::filesystem::temp_directory_path() / "ardy_test_package_outside.bin";
+  std::ofstream(outside) << "secret";
+  folder_error(model_with_initializer(external_tensor("link.bin")));
+  std::filesystem::create_symlink(outside, dir / "link.bin");
+  CHECK_THAT(error_message([&] { ModelPackage::from_folder(dir.string(), one_thread()); }),
+             ContainsSubstring((dir / "denoiser.onnx").string() + ": 'link.bin' resolves to ") &&
+                 ContainsSubstring("outside the package folder (a symbolic link?)"));
+  std::filesystem::remove(dir / "vocab.txt");
+  std::filesystem::create_symlink(outside, dir / "vocab.txt");
+  std::filesystem::copy_file(tiny_package_dir() + "/denoiser.onnx", dir / "denoiser.onnx",
+                             std::filesystem::copy_options::overwrite_existing);
+  CHECK_THAT(error_message([&] { ModelPackage::from_folder(dir.string(), one_thread()); }),
+             ContainsSubstring((dir / "vocab.txt").string() + ": 'vocab.txt' resolves to ") &&
+                 ContainsSubstring("outside the package folder"));
+  std::filesystem::remove(outside);
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("the external-data scanner refuses malformed bytes and finds nothing in real graphs", "[package][security]") {
+  namespace scan = ardy::onnx_scan;
+  for (const char* name : {"history.onnx", "denoiser.onnx", "decoder.onnx", "encoder.onnx", "text_encoder.onnx"}) {
+    const std::string& bytes = tiny_files().at(name);
+    CHECK(scan::external_tensors(bytes.data(), bytes.size(), name).empty());
+  }
+  const std::string good = model_with_nested_tensor(external_tensor("w.bin"));
+  const auto found = scan::external_tensors(good.data(), good.size(), "m.onnx");
+  REQUIRE(found.size() == 1);
+  CHECK(found[0].tensor == "W");
+  CHECK(found[0].location == "w.bin");
+  // Two location entries: both are checked, whichever ONNX Runtime would use.
+  const std::string twice = model_with_initializer(external_tensor("w.bin") +
+                                                   field_bytes(13, field_bytes(1, "location") + field_bytes(2, "../x")));
+  const auto both = scan::external_tensors(twice.data(), twice.size(), "twice.onnx");
+  REQUIRE(both.size() == 2);
+  CHECK(both[1].location == "../x");
+  // Truncated: every prefix is either refused or fine, never read past its end.
+  for (size_t n = 1; n < good.size(); ++n) {
+    const std::string cut = good.substr(0, n);
+    try {
+      scan::external_tensors(cut.data(), cut.size(), "cut.onnx");
+    } catch (const ardy::Error& e) {
+      CHECK_THAT(std::string(e.what()), ContainsSubstring("cut.onnx: not a valid ONNX model ("));
+    }
+  }
+  const std::string group = varint(7 << 3 | 3);
+  CHECK_THAT(error_message([&] { scan::external_tensors(group.data(), group.size(), "g.onnx"); }),
+             ContainsSubstring("g.onnx: not a valid ONNX model (wire type 3"));
+  // Subgraphs nested past the bound.
+  std::string deep = field_bytes(5, external_tensor("w.bin"));
+  for (int i = 0; i < scan::kMaxDepth / 3 + 1; ++i) deep = field_bytes(1, field_bytes(5, field_bytes(6, deep)));
+  const std::string model = field_bytes(7, deep);
+  CHECK_THAT(error_message([&] { scan::external_tensors(model.data(), model.size(), "deep.onnx"); }),
+             ContainsSubstring("nested deeper than 64"));
+  CHECK(scan::unsafe_path_reason("weights/w.bin").empty());
+  CHECK(scan::unsafe_path_reason("w..bin").empty());
+  CHECK(scan::unsafe_path_reason("./w.bin") == "has an empty or '.' path component");
+  CHECK(scan::unsafe_path_reason("w.bin/..") == "has a '..' component (leaves the package)");
 }

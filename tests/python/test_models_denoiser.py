@@ -60,9 +60,11 @@ def test_input_names_match_forward() -> None:
 def test_cached_history_gives_the_uncached_result(
     two_stage: bool, history: int, future: int
 ) -> None:
-    """forward_cached with history_keys_values is forward (the exported graphs' split)."""
+    """forward_cached with history_keys_values and goal_embeddings is forward (the exported
+    graphs' split), rows with and without constraints."""
     den = _denoiser(two_stage)
     inputs = example_denoiser_inputs(den, batch=3, history=history, future=future, seed=history)
+    inputs[DENOISER_MODULE_INPUTS.index("constraint_keep")][1] = 0.0  # a row without goals
     with torch.no_grad():
         expected = den(*inputs)
         cached = cached_inputs(den, inputs)

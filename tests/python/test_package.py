@@ -22,6 +22,8 @@ from ardy_export.models.graphs import (
     DECODER_INPUTS,
     DENOISER_INPUTS,
     DENOISER_MODULE_INPUTS,
+    GOALS_INPUTS,
+    GOALS_OUTPUTS,
     HISTORY_INPUTS,
 )
 from ardy_export.package import (
@@ -30,7 +32,7 @@ from ardy_export.package import (
     PARITY_HISTORY_FUTURE,
     PackageError,
     check_graphs,
-    run_history_graph,
+    run_denoiser_graphs,
 )
 from ardy_export.sampling.sampler import PromptEvent, RolloutConfig, rollout
 from ardy_export.sampling.tiny import random_bundle
@@ -95,6 +97,11 @@ def test_model_json_describes_the_graphs_and_the_model() -> None:
     assert history["outputs"][0]["shape"] == keys_values
     cached = next(i for i in denoiser["inputs"] if i["name"] == "history_kv")
     assert cached["shape"] == keys_values
+    goals = model["graphs"]["goals"]
+    assert [i["name"] for i in goals["inputs"]] == list(GOALS_INPUTS)
+    assert [o["name"] for o in goals["outputs"]] == list(GOALS_OUTPUTS)
+    embedding = next(o for o in goals["outputs"] if o["name"] == "future_embedding")
+    assert embedding["shape"] == ["batch", stages, "future", sizes["width"]]
     assert [i["name"] for i in model["graphs"]["decoder"]["inputs"]] == list(DECODER_INPUTS)
     assert model["graphs"]["text_encoder"]["outputs"][0]["shape"] == ["batch", TINY_TEXT_DIM]
     for key, file in GRAPH_FILES.items():
@@ -110,12 +117,20 @@ def test_graphs_match_pytorch_for_several_history_and_future_lengths() -> None:
     assert all(error <= PARITY_ATOL for error in errors.values()), errors
 
 
-def test_a_graph_that_differs_from_pytorch_is_refused() -> None:
+@pytest.mark.parametrize(
+    ("weights", "graph"),
+    [("history_proj", "history"), ("future_proj", "goals"), ("head", "denoiser")],
+)
+def test_a_graph_that_differs_from_pytorch_is_refused(weights: str, graph: str) -> None:
+    """Weights the committed graphs do not have: the graph that reads them is named."""
     bundle = random_bundle(seed=0, text_dim=TINY_TEXT_DIM)
+    generator = torch.Generator().manual_seed(0)
     with torch.no_grad():
-        for parameter in bundle.denoiser.parameters():
-            parameter.add_(0.05)
-    with pytest.raises(PackageError, match="denoiser"):
+        for name, parameter in bundle.denoiser.named_parameters():
+            if weights in name:
+                # Not a uniform shift: the layer norms after a projection would undo that.
+                parameter.add_(0.05 * torch.randn(parameter.shape, generator=generator))
+    with pytest.raises(PackageError, match=rf"^{graph}"):
         check_graphs(bundle, COMMITTED)
 
 
@@ -133,19 +148,16 @@ class OnnxGraph:
 
 
 class OnnxDenoiser:
-    """history.onnx then denoiser.onnx, called like ``Denoiser.forward`` (the history as
-    tokens), as the runtime calls them."""
+    """history.onnx, goals.onnx, then denoiser.onnx, called like ``Denoiser.forward`` (the
+    history as tokens, the goals as given), as the runtime chains them."""
 
     def __init__(self, package: Path, config: object) -> None:
         self.package = package
-        self.denoiser = OnnxGraph(package / "denoiser.onnx", DENOISER_INPUTS)
         self.config = config
 
     def __call__(self, *tensors: torch.Tensor) -> torch.Tensor:
-        at = DENOISER_MODULE_INPUTS.index("history")
-        history, mask = tensors[at].numpy(), tensors[at + 1].numpy()
-        keys_values = torch.from_numpy(run_history_graph(self.package, history, mask))
-        return self.denoiser(*tensors[:at], keys_values, *tensors[at + 1 :])
+        feeds = {n: t.numpy() for n, t in zip(DENOISER_MODULE_INPUTS, tensors, strict=True)}
+        return torch.from_numpy(run_denoiser_graphs(self.package, feeds))
 
 
 def test_the_package_alone_reproduces_the_golden_rollout() -> None:

@@ -29,7 +29,14 @@ def runner(build: Path, package: Path) -> CliRunner:
 
 def test_the_package_is_complete_small_and_licensed(package: Path) -> None:
     names = {p.name for p in package.iterdir()}
-    graphs = {"history.onnx", "denoiser.onnx", "decoder.onnx", "encoder.onnx", "text_encoder.onnx"}
+    graphs = {
+        "history.onnx",
+        "goals.onnx",
+        "denoiser.onnx",
+        "decoder.onnx",
+        "encoder.onnx",
+        "text_encoder.onnx",
+    }
     assert graphs | {"model.json", "vocab.txt", "MODEL_CARD.md", "LICENSE.md"} <= names
     assert sum(p.stat().st_size for p in package.iterdir()) < SIZE_LIMIT
     model = json.loads((package / "model.json").read_text(encoding="utf-8"))

@@ -672,7 +672,7 @@ static class Tests
     static void TestLoadFromMemory()
     {
         var files = new List<ModelFile>();
-        foreach (string name in new[] { "model.json", "history.onnx", "denoiser.onnx", "decoder.onnx", "encoder.onnx", "text_encoder.onnx", "vocab.txt" })
+        foreach (string name in new[] { "model.json", "history.onnx", "goals.onnx", "denoiser.onnx", "decoder.onnx", "encoder.onnx", "text_encoder.onnx", "vocab.txt" })
             files.Add(new ModelFile(name, File.ReadAllBytes(Path.Combine(modelFolder, name))));
         using (Model model = Model.LoadFromMemory(files, "default (memory)"))
             Check(model.JointCount == 21 && model.JointName(12) == "Hand_R", "load from memory: the shipped model's files as bytes");

@@ -46,6 +46,7 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 import torch
+import torch.nn.functional as F
 from torch import Tensor, nn
 
 from ardy_export.models.layers import (
@@ -141,19 +142,20 @@ class _Stage(nn.Module):
 
     def _embed(
         self,
-        window_in: Tensor,
+        window_embedding: Tensor,
+        future_embedding: Tensor,
         step: Tensor,
         text_embedding: Tensor,
         text_keep: Tensor,
         history: Tensor | None,
-        future_in: Tensor,
     ) -> Tensor:
-        """Embedded tokens [step, text, history, window, future] (no history when None)."""
-        c_tokens = window_in.shape[1]
+        """Embedded tokens [step, text, history, window, future] from the projected window
+        and future tokens (no history when None)."""
+        c_tokens = window_embedding.shape[1]
         h_tokens = 0 if history is None else history.shape[1]
-        f_tokens = future_in.shape[1]
-        device = window_in.device
-        keep = text_keep.to(window_in.dtype)[:, None]
+        f_tokens = future_embedding.shape[1]
+        device = window_embedding.device
+        keep = text_keep.to(window_embedding.dtype)[:, None]
         text = keep * self.text_proj(text_embedding) + (1.0 - keep) * self.null_text
         step_tok = self.step_embedding(step)
         times = torch.cat(
@@ -162,7 +164,7 @@ class _Stage(nn.Module):
                 torch.arange(f_tokens, device=device) + c_tokens,
             )
         )
-        parts = [self.window_proj(window_in), self.future_proj(future_in)]
+        parts = [window_embedding, future_embedding]
         if history is not None:
             times = torch.cat((torch.arange(h_tokens, device=device) - h_tokens, times))
             parts.insert(0, self.history_proj(history))
@@ -183,7 +185,14 @@ class _Stage(nn.Module):
         batch, c_tokens, _ = window_in.shape
         h_tokens = history.shape[1]
         device = window_in.device
-        x = self._embed(window_in, step, text_embedding, text_keep, history, future_in)
+        x = self._embed(
+            self.window_proj(window_in),
+            self.future_proj(future_in),
+            step,
+            text_embedding,
+            text_keep,
+            history,
+        )
         ones2 = torch.ones(batch, 2, dtype=torch.bool, device=device)
         ones_c = torch.ones(batch, c_tokens, dtype=torch.bool, device=device)
         key_valid = torch.cat((ones2, history_mask > 0.5, ones_c, future_attend > 0.5), dim=1)
@@ -210,24 +219,42 @@ class _Stage(nn.Module):
         layers = self.transformer.keys_values(x, attention_bias(allowed))
         return torch.stack([torch.stack(keys_values, dim=1) for keys_values in layers], dim=1)
 
+    def token_embedding(self, token: Tensor) -> Tensor:
+        """The part of ``window_proj`` that reads the window token [B, C, D] (with its bias):
+        the part that changes at every step."""
+        d = self.config.token_dim
+        return F.linear(token, self.window_proj.weight[:, :d], self.window_proj.bias)
+
+    def goal_embeddings(
+        self, goal_in: Tensor, window_mask: Tensor, future_in: Tensor
+    ) -> tuple[Tensor, Tensor]:
+        """The parts of the input projections that read the goals: the window goals' share of
+        ``window_proj`` (no bias) [B, C, W] and the future tokens' ``future_proj`` [B, F, W].
+        ``window_proj(cat(token, goal_in, window_mask))`` is ``token_embedding(token)`` plus
+        the first; they do not change from step to step."""
+        d = self.config.token_dim
+        goals = torch.cat((goal_in, window_mask), dim=-1)
+        return F.linear(goals, self.window_proj.weight[:, d:]), self.future_proj(future_in)
+
     def forward_cached(
         self,
-        window_in: Tensor,
+        window_embedding: Tensor,
+        future_embedding: Tensor,
         step: Tensor,
         text_embedding: Tensor,
         text_keep: Tensor,
         history_keys_values: Tensor,
         history_mask: Tensor,
-        future_in: Tensor,
         future_attend: Tensor,
     ) -> Tensor:
-        """``forward`` with the history given as ``history_keys_values``: only the step, text,
-        window and future tokens are computed; their keys follow the history's."""
+        """``forward`` from the projected window and future tokens, with the history given as
+        ``history_keys_values``: only the step, text, window and future tokens are computed;
+        their keys follow the history's."""
         self._require_history_self_only()
-        batch, c_tokens, _ = window_in.shape
+        batch, c_tokens, _ = window_embedding.shape
         h_tokens = history_mask.shape[1]
-        device = window_in.device
-        x = self._embed(window_in, step, text_embedding, text_keep, None, future_in)
+        device = window_embedding.device
+        x = self._embed(window_embedding, future_embedding, step, text_embedding, text_keep, None)
         size = x.shape[1]
         ones = torch.ones(batch, 2 + c_tokens, dtype=torch.bool, device=device)
         key_valid = torch.cat((history_mask > 0.5, ones, future_attend > 0.5), dim=1)
@@ -290,7 +317,19 @@ class Denoiser(nn.Module):
         future_mask: Tensor,
         constraint_keep: Tensor,
     ) -> Tensor:
-        def run(index: int, window_in: Tensor, future_in: Tensor, future_attend: Tensor) -> Tensor:
+        c = self.config
+        keep = constraint_keep.to(x_t.dtype)
+        k3 = keep[:, None, None]
+        goal_in, window_mask, future_in = self._goal_inputs(
+            window_goal * k3, window_goal_mask * k3, future_goal * k3, future_goal_mask * k3
+        )
+        goal_root, _ = split_goal(window_goal * k3, c)
+        mask_root, _ = split_goal(window_goal_mask * k3, c)
+        future_attend = future_mask * keep[:, None]
+        noisy_body = x_t[..., c.root_token_dim :]
+
+        def run(index: int, root: Tensor) -> Tensor:
+            window_in = torch.cat((root, noisy_body, goal_in, window_mask), dim=-1)
             return self.stages[index](
                 window_in,
                 step,
@@ -302,16 +341,7 @@ class Denoiser(nn.Module):
                 future_attend,
             )
 
-        return self._denoise(
-            run,
-            x_t,
-            window_goal,
-            window_goal_mask,
-            future_goal,
-            future_goal_mask,
-            future_mask,
-            constraint_keep,
-        )
+        return self._two_stages(run, x_t, goal_root, mask_root)
 
     def history_keys_values(self, history: Tensor, history_mask: Tensor) -> Tensor:
         """Keys and values of the history in every layer of every stage, [B, stages * layers,
@@ -319,6 +349,30 @@ class Denoiser(nn.Module):
         every step and guidance row (``forward_cached``)."""
         per_stage = [stage.history_keys_values(history, history_mask) for stage in self.stages]
         return torch.cat(per_stage, dim=1)
+
+    def goal_embeddings(
+        self,
+        window_goal: Tensor,
+        window_goal_mask: Tensor,
+        future_goal: Tensor,
+        future_goal_mask: Tensor,
+    ) -> tuple[Tensor, Tensor, Tensor, Tensor]:
+        """What the goals contribute, computed once per window (the goals as given, i.e. for
+        constraint_keep = 1): the in-window root goal and mask in token layout [B, C, 5P]
+        each, the window goals' share of every stage's window projection [B, stages, C, W]
+        and every stage's future token projection [B, stages, F, W]."""
+        c = self.config
+        goal_root, _ = split_goal(window_goal, c)
+        mask_root, _ = split_goal(window_goal_mask, c)
+        goal_in, window_mask, future_in = self._goal_inputs(
+            window_goal, window_goal_mask, future_goal, future_goal_mask
+        )
+        embeddings = [
+            stage.goal_embeddings(goal_in, window_mask, future_in) for stage in self.stages
+        ]
+        window = torch.stack([window for window, _ in embeddings], dim=1)
+        future = torch.stack([future for _, future in embeddings], dim=1)
+        return goal_root, mask_root, window, future
 
     def forward_cached(
         self,
@@ -328,77 +382,72 @@ class Denoiser(nn.Module):
         text_keep: Tensor,
         history_kv: Tensor,
         history_mask: Tensor,
-        window_goal: Tensor,
-        window_goal_mask: Tensor,
-        future_goal: Tensor,
-        future_goal_mask: Tensor,
+        window_root_goal: Tensor,
+        window_root_mask: Tensor,
+        window_goal_embedding: Tensor,
+        future_embedding: Tensor,
         future_mask: Tensor,
         constraint_keep: Tensor,
     ) -> Tensor:
-        """``forward`` with ``history_kv = history_keys_values(history, history_mask)`` in
-        place of the history: the same x0 within float rounding, without recomputing it."""
-        layers = self.config.layers
-
-        def run(index: int, window_in: Tensor, future_in: Tensor, future_attend: Tensor) -> Tensor:
-            return self.stages[index].forward_cached(
-                window_in,
-                step,
-                text_embedding,
-                text_keep,
-                history_kv[:, index * layers : (index + 1) * layers],
-                history_mask,
-                future_in,
-                future_attend,
-            )
-
-        return self._denoise(
-            run,
-            x_t,
-            window_goal,
-            window_goal_mask,
-            future_goal,
-            future_goal_mask,
-            future_mask,
-            constraint_keep,
-        )
-
-    def _denoise(
-        self,
-        run: Callable[[int, Tensor, Tensor, Tensor], Tensor],
-        x_t: Tensor,
-        window_goal: Tensor,
-        window_goal_mask: Tensor,
-        future_goal: Tensor,
-        future_goal_mask: Tensor,
-        future_mask: Tensor,
-        constraint_keep: Tensor,
-    ) -> Tensor:
-        """The goal handling and the stages around ``run(stage_index, window_in, future_in,
-        future_attend)``, which calls one stage's transformer (``stages`` order)."""
+        """``forward`` with ``history_kv = history_keys_values(history, history_mask)`` and
+        ``goal_embeddings(...)`` of the window's goals in place of the history and the goals:
+        the same x0 within float rounding, without recomputing either at every step."""
         c = self.config
         keep = constraint_keep.to(x_t.dtype)
         k3 = keep[:, None, None]
+        goal_root = window_root_goal * k3
+        mask_root = window_root_mask * k3
+        future_attend = future_mask * keep[:, None]
+        noisy_body = x_t[..., c.root_token_dim :]
+
+        def run(index: int, root: Tensor) -> Tensor:
+            stage = self.stages[index]
+            token = torch.cat((root, noisy_body), dim=-1)
+            window = stage.token_embedding(token) + k3 * window_goal_embedding[:, index]
+            return stage.forward_cached(
+                window,
+                future_embedding[:, index],
+                step,
+                text_embedding,
+                text_keep,
+                history_kv[:, index * c.layers : (index + 1) * c.layers],
+                history_mask,
+                future_attend,
+            )
+
+        return self._two_stages(run, x_t, goal_root, mask_root)
+
+    def _goal_inputs(
+        self,
+        window_goal: Tensor,
+        window_goal_mask: Tensor,
+        future_goal: Tensor,
+        future_goal_mask: Tensor,
+    ) -> tuple[Tensor, Tensor, Tensor]:
+        """(window goals beside each token, the window's mask, future tokens' input)."""
+        c = self.config
         if c.window_goal_input not in ("body", "full"):
             raise ValueError(
                 f"window_goal_input must be 'body' or 'full', got {c.window_goal_input!r}"
             )
-        goal = window_goal * k3
-        goal_root, goal_body = split_goal(goal, c)
-        goal_in = goal if c.window_goal_input == "full" else goal_body
-        mask_root, _ = split_goal(window_goal_mask * k3, c)
-        window_mask = window_goal_mask * k3
-        future_in = torch.cat((future_goal * k3, future_goal_mask * k3), dim=-1)
-        future_attend = future_mask * keep[:, None]
-        rd = c.root_token_dim
-        noisy_root = overwrite_root(x_t[..., :rd], goal_root, mask_root)
-        noisy_body = x_t[..., rd:]
+        goal_in = window_goal if c.window_goal_input == "full" else split_goal(window_goal, c)[1]
+        future_in = torch.cat((future_goal, future_goal_mask), dim=-1)
+        return goal_in, window_goal_mask, future_in
 
-        def window_input(root: Tensor) -> Tensor:
-            return torch.cat((root, noisy_body, goal_in, window_mask), dim=-1)
-
-        if not c.two_stage:
-            return run(0, window_input(noisy_root), future_in, future_attend)
-        root_hat = run(0, window_input(noisy_root), future_in, future_attend)
-        root_in = overwrite_root(root_hat.detach(), goal_root, mask_root)
-        body_hat = run(1, window_input(root_in), future_in, future_attend)
+    def _two_stages(
+        self,
+        run: Callable[[int, Tensor], Tensor],
+        x_t: Tensor,
+        goal_root: Tensor,
+        mask_root: Tensor,
+    ) -> Tensor:
+        """The stages around ``run(stage_index, window_root)``, which runs one stage's
+        transformer on the window with that root (``stages`` order): the noisy root with the
+        root goals written over it, then (two stages) the detached stage-1 root, again with
+        the goals over it."""
+        noisy_root = overwrite_root(x_t[..., : self.config.root_token_dim], goal_root, mask_root)
+        if not self.config.two_stage:
+            return run(0, noisy_root)
+        root_hat = run(0, noisy_root)
+        body_hat = run(1, overwrite_root(root_hat.detach(), goal_root, mask_root))
         return torch.cat((root_hat, body_hat), dim=-1)

@@ -16,27 +16,44 @@ from ardy_export.models.tokenizer import BodyTokenizer
 
 # Input and output names of the graphs, in order (the ONNX export and model.json use these).
 # The denoiser graph takes the history as the keys and values the history graph computed
-# once per window (``Denoiser.forward_cached``); ``DENOISER_MODULE_INPUTS`` are the arguments
-# of ``Denoiser.forward``, the uncached reference the training and the reference sampler run.
+# once per window, and the goals as the goals graph's embeddings, also once per window
+# (``Denoiser.forward_cached``); ``DENOISER_MODULE_INPUTS`` are the arguments of
+# ``Denoiser.forward``, the uncached reference the training and the reference sampler run.
 HISTORY_INPUTS: tuple[str, ...] = ("history", "history_mask")
 HISTORY_OUTPUTS: tuple[str, ...] = ("history_kv",)
+GOALS_INPUTS: tuple[str, ...] = (
+    "window_goal",
+    "window_goal_mask",
+    "future_goal",
+    "future_goal_mask",
+)
+GOALS_OUTPUTS: tuple[str, ...] = (
+    "window_root_goal",
+    "window_root_mask",
+    "window_goal_embedding",
+    "future_embedding",
+)
 DENOISER_INPUTS: tuple[str, ...] = (
     "x_t",
     "step",
     "text_embedding",
     "text_keep",
-    "history_kv",
+    *HISTORY_OUTPUTS,
     "history_mask",
-    "window_goal",
-    "window_goal_mask",
-    "future_goal",
-    "future_goal_mask",
+    *GOALS_OUTPUTS,
     "future_mask",
     "constraint_keep",
 )
 DENOISER_OUTPUTS: tuple[str, ...] = ("x0",)
-DENOISER_MODULE_INPUTS: tuple[str, ...] = tuple(
-    "history" if name == "history_kv" else name for name in DENOISER_INPUTS
+DENOISER_MODULE_INPUTS: tuple[str, ...] = (
+    "x_t",
+    "step",
+    "text_embedding",
+    "text_keep",
+    *HISTORY_INPUTS,
+    *GOALS_INPUTS,
+    "future_mask",
+    "constraint_keep",
 )
 DECODER_INPUTS: tuple[str, ...] = ("tokens", "prev_root", "prev_root_valid")
 DECODER_OUTPUTS: tuple[str, ...] = ("body",)
@@ -90,8 +107,30 @@ class HistoryGraph(nn.Module):
         return self.denoiser.history_keys_values(history, history_mask)
 
 
+class GoalsGraph(nn.Module):
+    """The window's goals -> what they contribute to every step (once per window):
+    window_root_goal, window_root_mask [B, C, 5P], window_goal_embedding [B, stages, C, W],
+    future_embedding [B, stages, F, W] (``Denoiser.goal_embeddings``)."""
+
+    def __init__(self, denoiser: Denoiser) -> None:
+        super().__init__()
+        self.denoiser = denoiser
+
+    def forward(
+        self,
+        window_goal: Tensor,
+        window_goal_mask: Tensor,
+        future_goal: Tensor,
+        future_goal_mask: Tensor,
+    ) -> tuple[Tensor, Tensor, Tensor, Tensor]:
+        return self.denoiser.goal_embeddings(
+            window_goal, window_goal_mask, future_goal, future_goal_mask
+        )
+
+
 class DenoiserGraph(nn.Module):
-    """The denoiser with the history as ``history_kv`` (inputs in DENOISER_INPUTS order)."""
+    """The denoiser with the history as ``history_kv`` and the goals as the goals graph's
+    outputs (inputs in DENOISER_INPUTS order)."""
 
     def __init__(self, denoiser: Denoiser) -> None:
         super().__init__()
@@ -105,10 +144,10 @@ class DenoiserGraph(nn.Module):
         text_keep: Tensor,
         history_kv: Tensor,
         history_mask: Tensor,
-        window_goal: Tensor,
-        window_goal_mask: Tensor,
-        future_goal: Tensor,
-        future_goal_mask: Tensor,
+        window_root_goal: Tensor,
+        window_root_mask: Tensor,
+        window_goal_embedding: Tensor,
+        future_embedding: Tensor,
         future_mask: Tensor,
         constraint_keep: Tensor,
     ) -> Tensor:
@@ -119,10 +158,10 @@ class DenoiserGraph(nn.Module):
             text_keep,
             history_kv,
             history_mask,
-            window_goal,
-            window_goal_mask,
-            future_goal,
-            future_goal_mask,
+            window_root_goal,
+            window_root_mask,
+            window_goal_embedding,
+            future_embedding,
             future_mask,
             constraint_keep,
         )
@@ -137,11 +176,12 @@ def history_kv_shape(config: DenoiserConfig, batch: int, history: int) -> tuple[
 
 def cached_inputs(denoiser: Denoiser, module_inputs: tuple[Tensor, ...]) -> tuple[Tensor, ...]:
     """DENOISER_MODULE_INPUTS values -> DENOISER_INPUTS values (the history replaced by its
-    keys and values)."""
-    at = DENOISER_MODULE_INPUTS.index("history")
-    history, history_mask = module_inputs[at], module_inputs[at + 1]
-    keys_values = denoiser.history_keys_values(history, history_mask)
-    return (*module_inputs[:at], keys_values, *module_inputs[at + 1 :])
+    keys and values, the goals by their embeddings)."""
+    given = dict(zip(DENOISER_MODULE_INPUTS, module_inputs, strict=True))
+    given["history_kv"] = denoiser.history_keys_values(given["history"], given["history_mask"])
+    goals = denoiser.goal_embeddings(*(given[name] for name in GOALS_INPUTS))
+    given.update(zip(GOALS_OUTPUTS, goals, strict=True))
+    return tuple(given[name] for name in DENOISER_INPUTS)
 
 
 @torch.no_grad()

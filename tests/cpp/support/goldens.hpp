@@ -99,19 +99,25 @@ inline const Goldens& goldens() {
 }
 
 // The denoiser graph's inputs for the golden denoiser case: the golden
-// history through the package's history graph, every other input as saved.
+// history through the package's history graph, the golden goals through its
+// goals graph, every other input as saved.
 inline std::vector<std::pair<std::string, ardy::Tensor>> golden_denoiser_inputs(const ardy::ModelPackage& package) {
-  std::vector<std::pair<std::string, ardy::Tensor>> history;
-  for (const char* name : {"history", "history_mask"}) {
-    history.emplace_back(name, goldens().tensor(std::string("denoiser/input/") + name));
+  const auto saved = [](const ardy::OnnxSession& graph) {
+    std::vector<std::pair<std::string, ardy::Tensor>> inputs;
+    for (const ardy::TensorInfo& info : graph.inputs()) {
+      inputs.emplace_back(info.name, goldens().tensor("denoiser/input/" + info.name));
+    }
+    return inputs;
+  };
+  std::map<std::string, ardy::Tensor> computed;
+  for (const ardy::OnnxSession* graph : {&package.history(), &package.goals()}) {
+    const std::vector<ardy::Tensor> outputs = graph->run(saved(*graph), {});
+    for (size_t i = 0; i < outputs.size(); ++i) computed.emplace(graph->outputs()[i].name, outputs[i]);
   }
   std::vector<std::pair<std::string, ardy::Tensor>> inputs;
   for (const ardy::TensorInfo& info : package.denoiser().inputs()) {
-    if (info.name == "history_kv") {
-      inputs.emplace_back(info.name, package.history().run(history, {"history_kv"}).at(0));
-    } else {
-      inputs.emplace_back(info.name, goldens().tensor("denoiser/input/" + info.name));
-    }
+    const auto it = computed.find(info.name);
+    inputs.emplace_back(info.name, it != computed.end() ? it->second : goldens().tensor("denoiser/input/" + info.name));
   }
   return inputs;
 }
