@@ -157,6 +157,47 @@ install_catch2() {
   stamp_set catch2
 }
 
+# clang 14 with libFuzzer and AddressSanitizer (tests/fuzz, bench/fuzz.sh), from
+# Debian bookworm into .deps/clang-root. An extracted clang cannot simply be
+# run: its libLLVM / libclang-cpp (and their libz3, libxml2, libicu...) are
+# not on a fresh Debian 12 machine's library path, and LD_LIBRARY_PATH into
+# the extracted tree would also put its glibc under the host's loader. So,
+# as for Godot, the wrapper runs it with the tree's own loader and
+# libraries; --argv0 keeps the clang++ driver mode, -no-canonical-prefixes
+# makes clang find its resource folder (headers, libclang_rt.fuzzer/asan)
+# beside that path rather than beside the loader (/proc/self/exe). The
+# programs clang starts (the linker ld of the host's binutils) and the
+# fuzzers it builds run with the host's own libraries, as g++'s would; the
+# C++ headers and crt files are the host's GCC 12 (install_host_tools).
+install_clang() {
+  stamp_ok clang && return 0
+  apt_setup
+  log "clang 14, libFuzzer, compiler-rt (Debian bookworm) into .deps/clang-root (about 450 MB, cached)"
+  rm -rf "$DEPS/clang-root"
+  extract_debs "$DEPS/clang-root" -t bookworm clang-14 libclang-common-14-dev libclang-rt-14-dev libfuzzer-14-dev
+  local r=$DEPS/clang-root
+  for tool in clang clang++; do
+    cat > "$DEPS/bin/$tool-14" <<WRAP
+#!/bin/sh
+# Debian bookworm's clang 14 with its own loader and libraries (scripts/deps.sh install_clang).
+R="$r"
+exec "\$R/lib64/ld-linux-x86-64.so.2" --library-path "\$R/usr/lib/x86_64-linux-gnu:\$R/lib/x86_64-linux-gnu" \\
+  --argv0 "\$R/usr/lib/llvm-14/bin/$tool" "\$R/usr/lib/llvm-14/bin/clang" -no-canonical-prefixes "\$@"
+WRAP
+    chmod +x "$DEPS/bin/$tool-14"
+  done
+  # A fuzzer that builds and runs proves the whole chain (driver, runtimes, linker).
+  local probe=$DEPS/clang-probe
+  mkdir -p "$probe"
+  printf '%s\n' '#include <cstddef>' '#include <cstdint>' \
+    'extern "C" int LLVMFuzzerTestOneInput(const uint8_t*, size_t) { return 0; }' > "$probe/probe.cpp"
+  "$DEPS/bin/clang++-14" -fsanitize=fuzzer,address "$probe/probe.cpp" -o "$probe/probe" &&
+    "$probe/probe" -runs=10 >/dev/null 2>&1 ||
+    { echo "deps: the extracted clang 14 cannot build and run a libFuzzer program (see above)" >&2; exit 1; }
+  rm -rf "$probe"
+  stamp_set clang
+}
+
 install_python() {
   local req=$ROOT/export_tools/requirements.txt
   local want; want=$(sha1sum "$req" | cut -c1-12)
@@ -192,9 +233,11 @@ install_host_tools() {
 what=${1:-all}
 install_host_tools
 case $what in
-  all) install_godot; install_ort; install_glm; install_json; install_catch2; install_python ;;
+  all) install_godot; install_ort; install_glm; install_json; install_catch2; install_clang; install_python ;;
   # The build (scripts/build.sh) compiles the C++ tests too, so Catch2 is
   # part of what the demo needs; the Python environment is not.
   runtime) install_godot; install_ort; install_glm; install_json; install_catch2 ;;
-  *) echo "usage: deps.sh [all|runtime]" >&2; exit 2 ;;
+  # The fuzzers' compiler alone (bench/fuzz.sh).
+  fuzz) install_clang ;;
+  *) echo "usage: deps.sh [all|runtime|fuzz]" >&2; exit 2 ;;
 esac

@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Sets up what is missing, builds everything and runs every test suite:
 # C++ (Catch2 via ctest, plus AddressSanitizer and ThreadSanitizer builds),
-# the C# bindings (Mono), the Windows build (MinGW-w64, run under Wine), the
-# packaging scripts, Python (pytest), GDScript lint, and the engine tests (real
-# Godot, headless).
+# a short libFuzzer run of every fuzz harness, the C# bindings (Mono), the
+# Windows build (MinGW-w64, run under Wine), the packaging scripts, Python
+# (pytest), GDScript lint, and the engine tests (real Godot, headless).
 # Ends with one "N passed, N failed, N skipped" line over all suites, counting
-# C++ tests by Catch2 test case, C#, Windows, packaging and engine tests by
-# check, Python tests by pytest item; exits non-zero on any failure.
+# C++ tests by Catch2 test case, fuzz harnesses, C#, Windows, packaging and
+# engine tests by check, Python tests by pytest item; exits non-zero on any
+# failure.
 #
 # Tests that need the Bandai Namco data skip without it (ARDY_BANDAI_DIR, by
 # default ../shared/data/bandai); ARDY_REQUIRE_DATA=1 (set by .ci/run) makes
@@ -82,6 +83,12 @@ run_checks() {  # suite command...
   fi
   record "$suite" "$passed" "$failed"
 }
+
+# libFuzzer harnesses of tests/fuzz, 5 s each (bench/fuzz.sh runs them longer):
+# one check per harness; a missing clang 14 / libFuzzer or a failed build is a
+# failure (deps.sh all installs them), never a skip.
+echo "== Fuzzing smoke run (libFuzzer + AddressSanitizer, 5 s per harness)"
+run_checks fuzz bash bench/fuzz.sh --seconds 5 --fresh
 
 echo "== C# bindings (Mono)"
 run_checks csharp bash bindings/csharp/run_tests.sh

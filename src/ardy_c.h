@@ -36,6 +36,11 @@
  *
  * Units: seconds (planner time: played motion, frame f at f / fps), metres,
  * radians; world space, Y up; heading 0 faces +Z. Quaternions are x, y, z, w.
+ * Bounds: numbers that parse but are no motion are refused with
+ * ARDY_ERROR_INVALID_ARGUMENT, never used: command times 0..1e7 s (a time the
+ * playhead has passed still means now), positions within 1e6 m of the origin
+ * per axis, headings within +-1e6 rad, path and steering speeds up to
+ * 100 m/s, contact values 0..1, NaN and infinities anywhere.
  *
  * C# P/Invoke: bool is one byte here (C99 _Bool): marshal it as
  * [MarshalAs(UnmanagedType.I1)] in signatures and structs; the structs are

@@ -13,6 +13,7 @@
 #include <memory>
 #include <mutex>
 #include <new>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -133,6 +134,28 @@ void set_id(uint64_t* out, uint64_t id) {
 
 void require(bool ok, const std::string& message) {
   if (!ok) invalid(message);
+}
+
+std::string number_text(double v) {
+  if (std::isnan(v)) return "NaN";
+  if (std::isinf(v)) return v > 0 ? "+infinity" : "-infinity";
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+
+// Times of commands (planner seconds) are 0..1e7 s: a negative time is a
+// caller's mistake, refused rather than taken as "now" (a time the playhead
+// has already passed still means now). Speeds of steering up to 100 m/s and
+// start positions within 1e6 m match constraints.hpp's bounds.
+constexpr double kMaxTime = 1e7;
+constexpr double kMaxSteeringSpeed = 100.0;
+constexpr double kMaxCoordinate = 1e6;
+
+void check_time(const char* function, const char* name, double t) {
+  if (!(t >= 0.0 && t <= kMaxTime)) {
+    invalid(std::string(function) + ": " + name + " is " + number_text(t) + " s, expected 0..1e7 s (planner seconds)");
+  }
 }
 
 ardy::PackageOptions package_options(const ardy_model_params* params) {
@@ -402,6 +425,9 @@ ardy_status ardy_planner_create(ardy_model* model, const ardy_planner_params* pa
     c.history_seconds = p.history_seconds;
     if (!(p.future_seconds < 0.0)) c.future_seconds = p.future_seconds;
     require(std::isfinite(p.start_x) && std::isfinite(p.start_z), "ardy_planner_params: start_x/start_z are not finite");
+    require(std::fabs(p.start_x) <= kMaxCoordinate && std::fabs(p.start_z) <= kMaxCoordinate,
+            "ardy_planner_params: start_x/start_z are (" + number_text(p.start_x) + ", " + number_text(p.start_z) +
+                "), outside +-1e6 m (positions must lie within 1e6 m of the origin)");
     c.start_xz = glm::dvec2(p.start_x, p.start_z);
     c.seed = p.seed;
     c.min_buffer_frames = p.min_buffer_frames;
@@ -484,6 +510,7 @@ ardy_status ardy_planner_set_prompt(ardy_planner* planner, const char* text) {
 
 ardy_status ardy_planner_set_prompt_at(ardy_planner* planner, double time, const char* text) {
   return planner_call(planner, "ardy_planner_set_prompt_at", [&](ardy::Planner& p) {
+    check_time("set_prompt_at", "time", time);
     if (text) {
       p.set_prompt_at(time, text);
     } else {
@@ -495,6 +522,7 @@ ardy_status ardy_planner_set_prompt_at(ardy_planner* planner, double time, const
 ardy_status ardy_planner_add_waypoint(ardy_planner* planner, double time, double x, double z, bool has_heading,
                                       double heading, uint64_t* out_id) {
   return planner_call(planner, "ardy_planner_add_waypoint", [&](ardy::Planner& p) {
+    check_time("add_waypoint", "time", time);
     set_id(out_id, p.add_waypoint(time, x, z, has_heading ? std::optional<double>(heading) : std::nullopt));
   });
 }
@@ -502,6 +530,7 @@ ardy_status ardy_planner_add_waypoint(ardy_planner* planner, double time, double
 ardy_status ardy_planner_add_path(ardy_planner* planner, double start_time, const double* points_xz,
                                   size_t point_count, double speed, bool smooth, uint64_t* out_id) {
   return planner_call(planner, "ardy_planner_add_path", [&](ardy::Planner& p) {
+    check_time("add_path", "start_time", start_time);
     require(points_xz || point_count == 0, "add_path: points_xz is NULL");
     require(point_count <= (size_t{1} << 20), "add_path: too many points");
     std::vector<glm::dvec2> points(point_count);
@@ -513,6 +542,7 @@ ardy_status ardy_planner_add_path(ardy_planner* planner, double start_time, cons
 ardy_status ardy_planner_add_path_frames(ardy_planner* planner, double start_time, const double* positions_xz,
                                          size_t frame_count, const double* headings, uint64_t* out_id) {
   return planner_call(planner, "ardy_planner_add_path_frames", [&](ardy::Planner& p) {
+    check_time("add_path_frames", "start_time", start_time);
     require(positions_xz || frame_count == 0, "add_path_frames: positions_xz is NULL");
     require(frame_count <= (size_t{1} << 20), "add_path_frames: too many frames");
     std::vector<glm::dvec2> positions(frame_count);
@@ -527,6 +557,7 @@ ardy_status ardy_planner_add_joint_target(ardy_planner* planner, double time, co
                                           const double* position, const double* rotation_xyzw, const double* root_xz,
                                           uint64_t* out_id) {
   return planner_call(planner, "ardy_planner_add_joint_target", [&](ardy::Planner& p) {
+    check_time("add_joint_target", "time", time);
     require(joint != nullptr, "add_joint_target: joint is NULL");
     ardy::JointTargetSpec spec;
     spec.time = time;
@@ -542,6 +573,7 @@ ardy_status ardy_planner_add_keyframe(ardy_planner* planner, double time, const 
                                       const float* local_rotations_xyzw, size_t joint_count, bool include_root,
                                       uint64_t* out_id) {
   return planner_call(planner, "ardy_planner_add_keyframe", [&](ardy::Planner& p) {
+    check_time("add_keyframe", "time", time);
     require(root_position != nullptr, "add_keyframe: root_position is NULL");
     require(local_rotations_xyzw != nullptr, "add_keyframe: local_rotations_xyzw is NULL");
     require(joint_count == p.joint_count(), "add_keyframe: joint_count is " + std::to_string(joint_count) +
@@ -561,6 +593,7 @@ ardy_status ardy_planner_add_keyframe(ardy_planner* planner, double time, const 
 ardy_status ardy_planner_add_keyframe_features(ardy_planner* planner, double time, const double* features,
                                                size_t feature_count, bool include_root, uint64_t* out_id) {
   return planner_call(planner, "ardy_planner_add_keyframe_features", [&](ardy::Planner& p) {
+    check_time("add_keyframe_features", "time", time);
     require(features || feature_count == 0, "add_keyframe_features: features is NULL");
     require(feature_count <= (size_t{1} << 20), "add_keyframe_features: too many features");
     set_id(out_id, p.add_keyframe(time, std::vector<double>(features, features + feature_count), include_root));
@@ -570,6 +603,8 @@ ardy_status ardy_planner_add_keyframe_features(ardy_planner* planner, double tim
 ardy_status ardy_planner_add_contact(ardy_planner* planner, double start_time, double end_time,
                                      const char* const* feet, size_t foot_count, double value, uint64_t* out_id) {
   return planner_call(planner, "ardy_planner_add_contact", [&](ardy::Planner& p) {
+    check_time("add_contact", "start_time", start_time);
+    check_time("add_contact", "end_time", end_time);
     require(feet || foot_count == 0, "add_contact: feet is NULL");
     std::vector<std::string> names;
     for (size_t i = 0; i < foot_count; ++i) {
@@ -590,7 +625,15 @@ ardy_status ardy_planner_clear_constraints(ardy_planner* planner) {
 
 ardy_status ardy_planner_set_target_velocity(ardy_planner* planner, double vx, double vz) {
   return planner_call(planner, "ardy_planner_set_target_velocity",
-                      [&](ardy::Planner& p) { p.set_target_velocity(vx, vz); });
+                      [&](ardy::Planner& p) {
+                        // NaN and infinity: the planner's own message names the component.
+                        if (std::isfinite(vx) && std::isfinite(vz)) {
+                          require(std::hypot(vx, vz) <= kMaxSteeringSpeed,
+                                  "set_target_velocity: (" + number_text(vx) + ", " + number_text(vz) +
+                                      ") m/s is faster than the 100 m/s allowed");
+                        }
+                        p.set_target_velocity(vx, vz);
+                      });
 }
 
 ardy_status ardy_planner_clear_target_velocity(ardy_planner* planner) {

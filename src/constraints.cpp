@@ -16,6 +16,13 @@ namespace {
 constexpr int64_t kMaxFrame = int64_t{1} << 40;
 // A dense path longer than this (about 14 hours at 20 fps) is a mistake.
 constexpr size_t kMaxPathFrames = size_t{1} << 20;
+// Numbers that parse but are no motion are refused, never used (constraints.hpp
+// "Bounds"): a position 1e300 m away would overflow the goal arithmetic and a
+// speed of 1e30 m/s would make a one-frame path.
+constexpr double kMaxCoordinate = 1e6;  // metres from the origin, per axis
+constexpr double kMaxHeading = 1e6;     // radians (any angle, many turns over)
+constexpr double kMaxFeature = 1e6;     // a keyframe's world features (metres, 6D, cos/sin)
+constexpr double kMaxSpeed = 100.0;     // m/s along a path
 
 template <class... Ts>
 struct Overloaded : Ts... {
@@ -46,10 +53,19 @@ class Checker {
       fail(field + " is " + std::to_string(f) + ", outside +-" + std::to_string(kMaxFrame));
     }
   }
+  // Finite and within +-limit (`what`: why the bound, for the message).
+  void bounded(const std::string& field, double v, double limit, const char* what) const {
+    finite(field, v);
+    if (std::fabs(v) > limit) fail(field + " is " + number_text(v) + ", outside +-" + number_text(limit) + " " + what);
+  }
+  void coordinate(const std::string& field, double v) const {
+    bounded(field, v, kMaxCoordinate, "m (positions must lie within 1e6 m of the origin)");
+  }
+  void heading(const std::string& field, double v) const { bounded(field, v, kMaxHeading, "rad"); }
   void vec3(const std::string& field, const glm::dvec3& v) const {
-    finite(field + ".x", v.x);
-    finite(field + ".y", v.y);
-    finite(field + ".z", v.z);
+    coordinate(field + ".x", v.x);
+    coordinate(field + ".y", v.y);
+    coordinate(field + ".z", v.z);
   }
 
  private:
@@ -84,9 +100,14 @@ void check_path_inputs(const char* what, const std::vector<glm::dvec2>& points, 
     if (!std::isfinite(points[i].x) || !std::isfinite(points[i].y)) {
       throw Error(name + ": points[" + std::to_string(i) + "] is not finite");
     }
+    if (std::fabs(points[i].x) > kMaxCoordinate || std::fabs(points[i].y) > kMaxCoordinate) {
+      throw Error(name + ": points[" + std::to_string(i) + "] is (" + number_text(points[i].x) + ", " +
+                  number_text(points[i].y) + "), outside +-1e6 m (positions must lie within 1e6 m of the origin)");
+    }
   }
-  if (!std::isfinite(speed) || !(speed > 0.0)) {
-    throw Error(name + ": speed is " + number_text(speed) + ", expected a positive finite speed (m/s)");
+  if (!std::isfinite(speed) || !(speed > 0.0) || speed > kMaxSpeed) {
+    throw Error(name + ": speed is " + number_text(speed) + ", expected a positive finite speed up to " +
+                number_text(kMaxSpeed) + " m/s");
   }
   if (!std::isfinite(fps) || !(fps > 0.0)) throw Error(name + ": fps is " + number_text(fps) + ", expected > 0");
 }
@@ -141,9 +162,9 @@ void validate_constraint(const Constraint& constraint, const FeatureLayout& layo
   std::visit(
       Overloaded{[&](const RootWaypoint& c) {
                    check.frame("frame", c.frame);
-                   check.finite("x", c.x);
-                   check.finite("z", c.z);
-                   if (c.heading) check.finite("heading", *c.heading);
+                   check.coordinate("x", c.x);
+                   check.coordinate("z", c.z);
+                   if (c.heading) check.heading("heading", *c.heading);
                  },
                  [&](const RootPath& c) {
                    check.frame("start_frame", c.start_frame);
@@ -153,8 +174,8 @@ void validate_constraint(const Constraint& constraint, const FeatureLayout& layo
                                 std::to_string(kMaxPathFrames) + " allowed");
                    }
                    for (size_t i = 0; i < c.positions.size(); ++i) {
-                     check.finite("positions[" + std::to_string(i) + "].x", c.positions[i].x);
-                     check.finite("positions[" + std::to_string(i) + "].z", c.positions[i].y);
+                     check.coordinate("positions[" + std::to_string(i) + "].x", c.positions[i].x);
+                     check.coordinate("positions[" + std::to_string(i) + "].z", c.positions[i].y);
                    }
                    if (!c.headings.empty() && c.headings.size() != c.positions.size()) {
                      check.fail("headings has " + std::to_string(c.headings.size()) +
@@ -162,7 +183,7 @@ void validate_constraint(const Constraint& constraint, const FeatureLayout& layo
                                 ") or none");
                    }
                    for (size_t i = 0; i < c.headings.size(); ++i)
-                     check.finite("headings[" + std::to_string(i) + "]", c.headings[i]);
+                     check.heading("headings[" + std::to_string(i) + "]", c.headings[i]);
                  },
                  [&](const PoseKeyframe& c) {
                    check.frame("frame", c.frame);
@@ -171,7 +192,8 @@ void validate_constraint(const Constraint& constraint, const FeatureLayout& layo
                                 std::to_string(layout.feature_size) + " (features.size of the model)");
                    }
                    for (size_t i = 0; i < c.features.size(); ++i) {
-                     check.finite("features[" + std::to_string(i) + "]", c.features[i]);
+                     check.bounded("features[" + std::to_string(i) + "]", c.features[i], kMaxFeature,
+                                   "(world features: metres, rotations, cos/sin)");
                    }
                  },
                  [&](const JointTarget& c) {
@@ -185,8 +207,8 @@ void validate_constraint(const Constraint& constraint, const FeatureLayout& layo
                    if (c.rotation) {
                      for (int col = 0; col < 3; ++col) {
                        for (int row = 0; row < 3; ++row) {
-                         check.finite("rotation[" + std::to_string(row) + "][" + std::to_string(col) + "]",
-                                      (*c.rotation)[col][row]);
+                         check.bounded("rotation[" + std::to_string(row) + "][" + std::to_string(col) + "]",
+                                       (*c.rotation)[col][row], 1e3, "(a rotation matrix)");
                        }
                      }
                    }
@@ -205,6 +227,9 @@ void validate_constraint(const Constraint& constraint, const FeatureLayout& layo
                      }
                    }
                    check.finite("value", c.value);
+                   if (c.value < 0.0 || c.value > 1.0) {
+                     check.fail("value is " + number_text(c.value) + ", expected 0 (free) .. 1 (planted)");
+                   }
                  }},
       constraint);
 }

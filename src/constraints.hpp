@@ -92,7 +92,12 @@ std::pair<int64_t, int64_t> constraint_frames(const Constraint& constraint);
 
 // Refuses NaN and infinity, joints or feet out of range, a keyframe of the
 // wrong size, an empty path, headings of the wrong count and empty contact
-// ranges. Errors start with `where` (e.g. "constraints[3]") and name the
+// ranges. Bounds (numbers that parse but are no motion are refused, never
+// clamped): positions (waypoint x/z, path positions, joint targets) within
+// +-1e6 m of the origin per axis, headings within +-1e6 rad, keyframe
+// features within +-1e6, rotation matrix entries within +-1e3, contact values
+// in 0..1, frames within +-2^40; path helpers: points within +-1e6 m, speeds
+// in (0, 100] m/s. Errors start with `where` (e.g. "constraints[3]") and name the
 // type and field: "constraints[3] (RootPath): positions[12].x is NaN".
 void validate_constraint(const Constraint& constraint, const FeatureLayout& layout,
                          const std::string& where = "constraint");

@@ -46,16 +46,17 @@ void FootLocker::apply(const float* features, Motion& motion, FootLockState& sta
                        std::vector<FootLockState>* per_frame, const float* goal_mask) const {
   if (per_frame) per_frame->clear();
   const size_t j = skeleton_.joint_count(), m = layout_.feature_size;
-  // Whether a goal constrains leg `leg` within kFootReleaseFrames from frame f.
-  const auto constrained_soon = [&](size_t leg, size_t f) {
-    if (!goal_mask) return false;
+  // Frames from f to the first frame within kFootReleaseFrames on which a
+  // goal constrains leg `leg` (none: no goal that soon).
+  const auto constrained_in = [&](size_t leg, size_t f) -> std::optional<size_t> {
+    if (!goal_mask) return std::nullopt;
     const size_t end = std::min(motion.frame_count, f + kFootReleaseFrames + 1);
     for (size_t g = f; g < end; ++g) {
       for (size_t i : legs_[leg].features) {
-        if (goal_mask[g * m + i] > 0.0f) return true;
+        if (goal_mask[g * m + i] > 0.0f) return g - f;
       }
     }
-    return false;
+    return std::nullopt;
   };
   for (size_t f = 0; f < motion.frame_count && available_; ++f) {
     const float* row = features + f * m;
@@ -68,28 +69,43 @@ void FootLocker::apply(const float* features, Motion& motion, FootLockState& sta
       FootLockState::Leg& s = state.legs[leg];
       const glm::vec3 ankle = position[joints.ankle];
       const glm::vec2 own(ankle.x, ankle.z);
+      // The model's step of this leg this frame: the slower of ankle and knee
+      // (the return moves both; a knee swinging slower than its foot sets it).
+      const glm::vec3 knee = position[joints.knee];
+      const float knee_step = s.has_own ? glm::length(knee - s.knee_before) : 0.0f;
+      const float own_step = s.has_own ? std::min(glm::length(own - s.own_before), knee_step) : 0.0f;
+      const glm::vec3 knee_shown_before = s.has_own ? s.knee_shown : knee;
+      s.own_before = own;
+      s.knee_before = knee;
+      s.knee_shown = knee;  // unless the IK below moves it
+      s.has_own = true;
+      const float psi = heading_angle(row[layout_.heading.start], row[layout_.heading.start + 1]);
+      const glm::vec3 bend_axis = heading_rotation(psi) * glm::vec3(1.0f, 0.0f, 0.0f);
+      const auto solve = [&](glm::vec2 target) {
+        return two_bone_ik(position[joints.hip], knee, ankle, glm::vec3(target.x, ankle.y, target.y), bend_axis);
+      };
+      const auto knee_after = [&](const TwoBoneRotations& turn) {
+        return position[joints.hip] + turn.upper * (knee - position[joints.hip]);
+      };
       float flag = 0.0f;
       for (size_t i : joints.flags) flag = std::max(flag, row[layout_.foot_contacts.start + i]);
       const auto smoothstep = [](float a) { return a * a * (3.0f - 2.0f * a); };
-      // Where a foot returning to the model's path is shown this frame.
-      const auto returning = [&] {
-        const float a = 1.0f - static_cast<float>(s.release_left) / static_cast<float>(kFootReleaseFrames + 1);
-        return s.release_from + (own - s.release_from) * smoothstep(a);
-      };
       const auto release = [&] {  // from where the foot was last shown
         s.planted = false;
-        s.release_left = kFootReleaseFrames;
+        s.returning = true;
+        s.offset = s.shown - own;
+        s.return_step = 0.0f;
       };
-      const bool down = ankle.y < kFootLockHeight && flag > (s.planted ? kFootLiftFlag : kFootPlantFlag) &&
-                        !constrained_soon(leg, f);
+      const std::optional<size_t> constrained = constrained_in(leg, f);
+      const bool down = ankle.y < kFootLockHeight && flag > (s.planted ? kFootLiftFlag : kFootPlantFlag) && !constrained;
       if (!down) s.let_go = false;
       if (down && !s.planted && !s.let_go) {
         // Landing: held where it is shown now. Mid-return it is already off
         // the model's path, at the pin: no easing in.
-        const bool returning_now = s.release_left > 0;
-        s.pin = returning_now ? returning() : own;
+        const bool returning_now = s.returning;
+        s.pin = returning_now ? own + s.offset : own;
         s.planted = true;
-        s.release_left = 0;
+        s.returning = false;
         s.held = returning_now ? kFootPlantFrames : 0;
       } else if (!down && s.planted) {
         release();
@@ -104,16 +120,38 @@ void FootLocker::apply(const float* features, Motion& motion, FootLockState& sta
         ++s.held;
         const float a = std::min(1.0f, static_cast<float>(s.held) / static_cast<float>(kFootPlantFrames + 1));
         target = own + (s.pin - own) * smoothstep(a);
-        s.release_from = target;
-      } else if (s.release_left > 0) {
-        target = returning();
-        --s.release_left;
+      } else if (s.returning) {
+        // Back toward the model's path no faster than the model's own leg
+        // moves allows; a constraint ahead makes it arrive by the constrained frame.
+        const float left = glm::length(s.offset);
+        const float cap = kFootReturnShare * own_step + kFootReturnFloorStep;
+        float step = std::min({cap, s.return_step + 0.5f * cap, std::max(0.5f * left, kFootReturnFloorStep)});
+        if (constrained) {
+          step = std::max(step, left / static_cast<float>(*constrained + 1));
+        } else {
+          // Near full extension the IK's knee moves many times as far as the
+          // ankle's target: shorten the step while the knee would outrun the
+          // model's knee by more than the same share.
+          const float knee_cap = (1.0f + kFootReturnShare) * knee_step + kFootReturnFloorStep;
+          for (int halvings = 0; halvings < 4 && left > 0.0f && step > 0.25f * kFootReturnFloorStep; ++halvings) {
+            const glm::vec2 t = own + s.offset * ((left - std::min(step, left)) / left);
+            if (glm::length(knee_after(solve(t)) - knee_shown_before) <= knee_cap) break;
+            step *= 0.5f;
+          }
+        }
+        step = std::min(step, left);
+        s.return_step = step;
+        s.offset = left > 0.0f ? s.offset * ((left - step) / left) : glm::vec2(0.0f);
+        if (glm::length(s.offset) < 1e-4f) {
+          s.offset = glm::vec2(0.0f);
+          s.returning = false;
+        }
+        target = own + s.offset;
       }
+      s.shown = target;
       if (glm::length(target - own) < 1e-4f) continue;
-      const float psi = heading_angle(row[layout_.heading.start], row[layout_.heading.start + 1]);
-      const glm::vec3 bend_axis = heading_rotation(psi) * glm::vec3(1.0f, 0.0f, 0.0f);
-      const TwoBoneRotations turn = two_bone_ik(position[joints.hip], position[joints.knee], ankle,
-                                                glm::vec3(target.x, ankle.y, target.y), bend_axis);
+      const TwoBoneRotations turn = solve(target);
+      s.knee_shown = knee_after(turn);
       global[joints.hip] = turn.upper * global[joints.hip];
       global[joints.knee] = turn.lower * global[joints.knee];
       moved = true;  // the foot keeps its world rotation: the toes follow it

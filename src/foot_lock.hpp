@@ -5,12 +5,17 @@
 // foot as planted (its contact flags) and the ankle is near the ground, the
 // ankle stays where it landed, horizontally, by two-bone IK of the leg (hip
 // and knee rotations; the foot keeps its world orientation, so the toes
-// follow). When the foot lifts off it returns to the model's own path over
-// kFootReleaseFrames. The tokenizer's decoded feet slide (docs/evaluation:
-// foot skate is 2.8x the data's); this removes the slide the contact flags
-// see. Constraints win: a leg whose joints the window's goals constrain (a
-// keyframe, a foot target) is not held on those frames, and a held foot
-// starts its return kFootReleaseFrames before them. A skeleton without
+// follow). When the foot lifts off it returns to the model's own path no
+// faster than the model's leg moves allows (kFootReturnShare of its step
+// plus kFootReturnFloorStep a frame): a foot held while the model's slid
+// 0.2 m, lifting slowly, must not jump back (issue 15: a fixed 6-frame
+// return moved such legs at up to 2.7x the model's own speed). The
+// tokenizer's decoded feet slide (docs/evaluation: foot skate is 2.8x the
+// data's); this removes the slide the contact flags see. Constraints win: a
+// leg whose joints the window's goals constrain (a keyframe, a foot target)
+// is not held on those frames,
+// and a held foot starts its return kFootReleaseFrames before them, on the
+// model's path by the constrained frame whatever the cap. A skeleton without
 // two-bone legs above its contact joints has nothing to lock (available() is
 // false).
 
@@ -19,6 +24,7 @@
 #include <vector>
 
 #include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
 
 #include "features.hpp"
 #include "sampler.hpp"
@@ -26,9 +32,20 @@
 
 namespace ardy {
 
-// Frames over which a lifted foot returns from where it was held to the
-// model's path (smoothstep: it leaves at rest and arrives at the path's speed).
+// Frames before a constrained frame at which a held foot starts its return
+// (it is on the model's path at the constrained frame).
 constexpr size_t kFootReleaseFrames = 6;
+// A returning foot closes its distance to the model's path by at most this
+// share of the model's own step of the leg that frame (the slower of ankle
+// and knee, as the return moves both) plus kFootReturnFloorStep, so the
+// shown leg moves at most about 1 + share times as fast as the model's; the
+// floor lets a foot the model keeps still come back too (0.4 m/s at 20 fps:
+// a 0.25 m hold in under a second). Near full extension the IK moves the
+// knee many times as far as the ankle, so the step is also halved while the
+// knee would outrun the same bound. The rate eases in over two frames and
+// the last part halves each frame: the return starts and ends softly.
+constexpr float kFootReturnShare = 0.4f;
+constexpr float kFootReturnFloorStep = 0.02f;  // m per model frame
 // A foot is planted when its strongest contact flag rises above kFootPlantFlag
 // and stays planted until it falls below kFootLiftFlag (no flicker).
 constexpr float kFootPlantFlag = 0.6f;
@@ -46,8 +63,14 @@ struct FootLockState {
   struct Leg {
     bool planted = false;
     glm::vec2 pin{0.0f};           // where the ankle is held (x, z)
-    size_t release_left = 0;       // frames of the return to the model's path still to go
-    glm::vec2 release_from{0.0f};  // where the return started
+    glm::vec2 shown{0.0f};         // where the ankle was shown (x, z), last frame
+    bool returning = false;        // lifted, on its way back to the model's path
+    glm::vec2 offset{0.0f};        // shown ankle minus the model's (x, z), last frame
+    float return_step = 0.0f;      // how much the offset shrank last frame (m)
+    bool has_own = false;          // own_before is set
+    glm::vec2 own_before{0.0f};    // the model's ankle (x, z) last frame
+    glm::vec3 knee_before{0.0f};   // the model's knee last frame
+    glm::vec3 knee_shown{0.0f};    // the knee as shown last frame
     bool let_go = false;           // pulled too far: not held again until the flags drop
     size_t held = 0;               // frames held so far (the hold eases in)
   };

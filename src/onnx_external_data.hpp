@@ -113,7 +113,8 @@ class Scanner {
   // external; for an entry, fills key_ / value_.
   void scan(size_t begin, size_t end, Kind kind, int depth) {
     if (depth > kMaxDepth) fail(begin, "messages nested deeper than " + std::to_string(kMaxDepth));
-    std::string name, location;
+    std::string name;
+    std::vector<std::string> locations;  // every "location" entry: which one ONNX Runtime uses is its business
     bool external = false;
     size_t pos = begin;
     while (pos < end) {
@@ -150,7 +151,7 @@ class Scanner {
               value_.clear();
               scan(pos, stop, sub, depth + 1);
               external = true;  // any external_data entry means the data is elsewhere
-              if (key_ == "location") location = value_;
+              if (key_ == "location") locations.push_back(value_);
             } else {
               scan(pos, stop, sub, depth + 1);
             }
@@ -161,7 +162,10 @@ class Scanner {
         default: fail(at, "wire type " + std::to_string(key & 7) + " (groups are not used by ONNX)");
       }
     }
-    if (kind == Kind::tensor && external) found_.push_back({std::move(name), std::move(location)});
+    if (kind == Kind::tensor && external) {
+      if (locations.empty()) locations.emplace_back();
+      for (std::string& location : locations) found_.push_back({name, std::move(location)});
+    }
   }
 
   const uint8_t* base_;
@@ -173,8 +177,9 @@ class Scanner {
 
 }  // namespace detail
 
-// Every tensor of the model with external data, in file order. `what` names
-// the graph in errors ("package/denoiser.onnx").
+// Every tensor of the model with external data, in file order, once per
+// "location" entry it has (once with "" when it has none). `what` names the
+// graph in errors ("package/denoiser.onnx").
 inline std::vector<ExternalTensor> external_tensors(const void* data, size_t size, const std::string& what) {
   if (size == 0) return {};
   if (data == nullptr) throw Error(what + ": null data pointer with a size of " + std::to_string(size));

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <initializer_list>
 #include <limits>
+#include <sstream>
 
 #include <nlohmann/json.hpp>
 
@@ -14,7 +15,7 @@ namespace {
 
 using json = nlohmann::json;
 
-constexpr double kMaxSeconds = 1e7;  // about 116 days
+constexpr double kMaxSeconds = 1e7;  // about 116 days; timeline times are 0..kMaxSeconds
 
 // The fields of one JSON object, with errors that name the entry and field.
 class Fields {
@@ -73,10 +74,24 @@ class Fields {
     if (by_frame && by_time) {
       fail(frame_key, std::string("and ") + time_key + " are both given (expected one of them)");
     }
-    if (by_frame) return integer(at(frame_key), frame_key);
+    // A timeline starts at 0: an earlier time is a mistake, not "now".
+    if (by_frame) {
+      const int64_t f = integer(at(frame_key), frame_key);
+      const int64_t last = static_cast<int64_t>(kMaxSeconds * fps_);
+      if (f < 0 || f > last) {
+        fail(frame_key, "is " + std::to_string(f) + ", expected 0.." + std::to_string(last) + " (0 to 1e7 s)");
+      }
+      return f;
+    }
     if (by_time) {
+      const double seconds = number(time_key);
+      if (seconds < 0.0 || seconds > kMaxSeconds) {
+        std::ostringstream text;
+        text << seconds;
+        fail(time_key, "is " + text.str() + " s, expected 0..1e7 s (timelines start at 0)");
+      }
       try {
-        return seconds_to_frame(number(time_key), fps_);
+        return seconds_to_frame(seconds, fps_);
       } catch (const Error& e) {
         fail(time_key, e.what());
       }

@@ -22,6 +22,10 @@
 // - joint "joint" as a name or an index, "rotation" as 3 rows of 3;
 // - contact "feet" as indices or contact joint names (features.contact_joints).
 //
+// Times are 0..1e7 s and frames 0..1e7 * fps (a negative time is refused,
+// not taken as "now"); positions, headings, speeds and contact values have
+// the bounds of validate_constraint (constraints.hpp).
+//
 // Unknown types and fields, wrong value types, NaN/infinity and unknown
 // joints are refused with an Error naming the entry and the field, e.g.
 // "timeline.json: constraints[2] (joint): unknown joint 'Hand' (the

@@ -106,12 +106,12 @@ static void test_load_errors(void) {
 }
 
 static ardy_model* load_from_memory(void) {
-  static const char* names[] = {"model.json",   "history.onnx",      "denoiser.onnx", "decoder.onnx",
-                                "encoder.onnx", "text_encoder.onnx", "vocab.txt"};
-  ardy_file_buffer files[7];
-  void* data[7];
+  static const char* names[] = {"model.json",   "history.onnx", "goals.onnx",        "denoiser.onnx",
+                                "decoder.onnx", "encoder.onnx", "text_encoder.onnx", "vocab.txt"};
+  ardy_file_buffer files[8];
+  void* data[8];
   char path[1024];
-  for (int i = 0; i < 7; ++i) {
+  for (int i = 0; i < 8; ++i) {
     snprintf(path, sizeof path, "%s/%s", TINY, names[i]);
     data[i] = read_file(path, &files[i].size);
     CHECK(data[i] != NULL);
@@ -121,8 +121,8 @@ static ardy_model* load_from_memory(void) {
   ardy_model_params params = ardy_model_default_params();
   params.intra_op_threads = 1;
   ardy_model* model = NULL;
-  CHECK_STATUS(ardy_model_load_from_memory(files, 7, "tiny (memory)", &params, &model), ARDY_OK);
-  for (int i = 0; i < 7; ++i) free(data[i]); /* the bytes need not outlive the call */
+  CHECK_STATUS(ardy_model_load_from_memory(files, 8, "tiny (memory)", &params, &model), ARDY_OK);
+  for (int i = 0; i < 8; ++i) free(data[i]); /* the bytes need not outlive the call */
   return model;
 }
 
@@ -172,6 +172,10 @@ static void test_planner(ardy_model* model) {
   params.output_smoothing_frames = 50.0;
   CHECK_STATUS(ardy_planner_create(model, &params, &planner), ARDY_ERROR_INVALID_ARGUMENT);
   CHECK_CONTAINS(ardy_last_error(), "output_smoothing_frames is 50");
+  params = ardy_planner_default_params();
+  params.start_x = 1e300;
+  CHECK_STATUS(ardy_planner_create(model, &params, &planner), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_last_error(), "start_x/start_z are (1e+300, 0), outside +-1e6 m");
   params = ardy_planner_default_params();
   params.interpolate_root = 2;
   CHECK_STATUS(ardy_planner_create(model, &params, &planner), ARDY_ERROR_INVALID_ARGUMENT);
@@ -325,6 +329,33 @@ static void test_planner(ardy_model* model) {
   CHECK_CONTAINS(ardy_planner_last_error(planner), "steps is 99");
   CHECK_STATUS(ardy_planner_set_sampling(planner, 2, 1.5f, NAN), ARDY_OK);
   CHECK_STATUS(ardy_planner_wait_idle(planner, 60.0), ARDY_OK);
+
+  /* Numbers that parse but are no motion: refused with the bound, never used. */
+  CHECK_STATUS(ardy_planner_add_waypoint(planner, -5.0, 0.0, 0.0, false, 0.0, NULL), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "add_waypoint: time is -5 s, expected 0..1e7 s (planner seconds)");
+  CHECK_STATUS(ardy_planner_add_waypoint(planner, NAN, 0.0, 0.0, false, 0.0, NULL), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "add_waypoint: time is NaN s");
+  CHECK_STATUS(ardy_planner_add_waypoint(planner, 1.0, 1e300, 0.0, false, 0.0, NULL), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "x is 1e+300, outside +-1e+06 m");
+  CHECK_STATUS(ardy_planner_add_waypoint(planner, 1.0, 0.0, 0.0, true, INFINITY, NULL), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "heading is +infinity");
+  const double line[] = {0.0, 0.0, 0.0, 2.0};
+  CHECK_STATUS(ardy_planner_add_path(planner, 1.0, line, 2, 1e30, false, NULL), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "speed is 1e+30, expected a positive finite speed up to 100 m/s");
+  CHECK_STATUS(ardy_planner_add_path_frames(planner, INFINITY, line, 2, NULL, NULL), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "add_path_frames: start_time is +infinity s");
+  CHECK_STATUS(ardy_planner_add_contact(planner, 1.0, 1e8, NULL, 0, 1.0, NULL), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "add_contact: end_time is 1e+08 s");
+  CHECK_STATUS(ardy_planner_add_contact(planner, 1.0, 2.0, NULL, 0, NAN, NULL), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "value is NaN");
+  CHECK_STATUS(ardy_planner_set_prompt_at(planner, -1.0, "a person walks"), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "set_prompt_at: time is -1 s");
+  CHECK_STATUS(ardy_planner_set_target_velocity(planner, 1e30, 0.0), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "faster than the 100 m/s allowed");
+  const double far_position[] = {0.0, 1e7, 0.0};
+  CHECK_STATUS(ardy_planner_add_joint_target(planner, 1.5, "Hand_R", far_position, NULL, NULL, NULL),
+               ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "position.y is 1e+07, outside +-1e+06 m");
 
   /* Play on: the planner is still usable after all those errors. */
   for (int i = 0; i < 40; ++i) {

@@ -156,8 +156,45 @@ TEST_CASE("path_from_polyline samples the polyline at constant speed (constraint
              ContainsSubstring("at least 2 points"));
   CHECK_THAT(error_message([] { ardy::path_from_polyline({{0, 0}, {1, 1}}, 0.0, 0, 20.0); }),
              ContainsSubstring("speed is 0"));
-  CHECK_THAT(error_message([] { ardy::path_from_polyline({{0, 0}, {1e12, 0}}, 1.0, 0, 20.0); }),
+  CHECK_THAT(error_message([] { ardy::path_from_polyline({{0, 0}, {5e5, 0}}, 1.0, 0, 20.0); }),
              ContainsSubstring("more than the"));
+}
+
+TEST_CASE("numbers that parse but are no motion are refused with the bound", "[constraints][errors]") {
+  const auto message = [&](const Constraint& c) {
+    return error_message([&] { ardy::validate_constraint(c, layout(), "constraints[0]"); });
+  };
+  RootWaypoint waypoint;
+  waypoint.x = 1e300;
+  CHECK_THAT(message(waypoint), ContainsSubstring("constraints[0] (RootWaypoint): x is 1e+300, outside +-1e+06 m "
+                                                  "(positions must lie within 1e6 m of the origin)"));
+  waypoint.x = -1e6;  // the bound itself is fine
+  waypoint.z = 2e6;
+  CHECK_THAT(message(waypoint), ContainsSubstring("z is 2e+06, outside +-1e+06 m"));
+  waypoint.z = 0.0;
+  waypoint.heading = 1e20;
+  CHECK_THAT(message(waypoint), ContainsSubstring("heading is 1e+20, outside +-1e+06 rad"));
+  RootPath path;
+  path.positions = {{0.0, 0.0}, {0.0, -3e7}};
+  CHECK_THAT(message(path), ContainsSubstring("(RootPath): positions[1].z is -3e+07, outside +-1e+06 m"));
+  JointTarget joint;
+  joint.joint = 3;
+  joint.position = glm::dvec3(0.0, 1e9, 0.0);
+  CHECK_THAT(message(joint), ContainsSubstring("(JointTarget): position.y is 1e+09, outside +-1e+06 m"));
+  PoseKeyframe key;
+  key.features.assign(layout().feature_size, 0.0);
+  key.features[7] = -1e12;
+  CHECK_THAT(message(key), ContainsSubstring("(PoseKeyframe): features[7] is -1e+12, outside +-1e+06"));
+  FootContact contact;
+  contact.end_frame = 4;
+  contact.value = 2.0;
+  CHECK_THAT(message(contact), ContainsSubstring("(FootContact): value is 2, expected 0 (free) .. 1 (planted)"));
+
+  CHECK_THAT(error_message([] { ardy::path_from_polyline({{0, 0}, {1, 0}}, 1e30, 0, 20.0); }),
+             ContainsSubstring("path_from_polyline: speed is 1e+30, expected a positive finite speed up to 100 m/s"));
+  CHECK_THAT(error_message([] { ardy::path_from_clicks({{0, 0}, {1e300, 0}}, 1.0, 0, 20.0); }),
+             ContainsSubstring("path_from_clicks: points[1] is (1e+300, 0), outside +-1e6 m"));
+  CHECK(ardy::path_from_polyline({{0, 0}, {1, 0}}, 100.0, 0, 20.0).positions.size() == 1);
 }
 
 TEST_CASE("mouse clicks become a smoothed dense path through the first and last click", "[constraints][paths]") {
@@ -503,4 +540,34 @@ TEST_CASE("bad JSON timelines name the entry and the field", "[constraints][time
   CHECK_THAT(error(R"({"prompts": [{"time": 0}]})"), ContainsSubstring("prompts[0]: missing field 'text'"));
   CHECK_THAT(error(R"({"prompt": []})"), ContainsSubstring("t.json: unknown field 'prompt'"));
   CHECK_THAT(error("[1, 2"), ContainsSubstring("t.json: not valid JSON"));
+}
+
+TEST_CASE("JSON timelines refuse negative or huge times and out-of-range numbers", "[constraints][timeline][errors]") {
+  const auto package = tiny_package();
+  const auto error = [&](const std::string& text) {
+    return error_message([&] { ardy::parse_timeline_text(text, *package, "t.json"); });
+  };
+  CHECK_THAT(error(R"({"constraints": [{"type": "waypoint", "time": -5, "x": 0, "z": 0}]})"),
+             ContainsSubstring("t.json: constraints[0] (waypoint): time is -5 s, expected 0..1e7 s"));
+  CHECK_THAT(error(R"({"constraints": [{"type": "waypoint", "time": 2e7, "x": 0, "z": 0}]})"),
+             ContainsSubstring("time is 2e+07 s, expected 0..1e7 s"));
+  CHECK_THAT(error(R"({"constraints": [{"type": "waypoint", "frame": -3, "x": 0, "z": 0}]})"),
+             ContainsSubstring("(waypoint): frame is -3, expected 0..200000000"));
+  CHECK_THAT(error(R"({"prompts": [{"time": -0.5, "text": "walk"}]})"),
+             ContainsSubstring("t.json: prompts[0]: time is -0.5 s, expected 0..1e7 s"));
+  CHECK_THAT(error(R"({"constraints": [{"type": "contact", "start_time": -1, "end_time": 2}]})"),
+             ContainsSubstring("(contact): start_time is -1 s"));
+  CHECK_THAT(error(R"({"constraints": [{"type": "waypoint", "time": 1, "x": 1e300, "z": 0}]})"),
+             ContainsSubstring("t.json: constraints[0] (RootWaypoint): x is 1e+300, outside +-1e+06 m"));
+  CHECK_THAT(error(R"({"constraints": [{"type": "path", "points": [[0, 0], [0, 5]], "speed": 1e30}]})"),
+             ContainsSubstring("(path): path_from_polyline: speed is 1e+30, expected a positive finite speed up to 100"));
+  CHECK_THAT(error(R"({"constraints": [{"type": "clicks", "points": [[0, 0], [0, 1e7]]}]})"),
+             ContainsSubstring("(clicks): path_from_clicks: points[1] is (0, 1e+07), outside +-1e6 m"));
+  CHECK_THAT(error(R"({"constraints": [{"type": "joint", "time": 1, "joint": 3, "position": [0, -1e300, 0]}]})"),
+             ContainsSubstring("position.y is -1e+300, outside +-1e+06 m"));
+  CHECK_THAT(error(R"({"constraints": [{"type": "contact", "start_time": 1, "end_time": 2, "value": 7}]})"),
+             ContainsSubstring("value is 7, expected 0 (free) .. 1 (planted)"));
+  // NaN and infinity cannot be written in JSON, and a number that overflows is refused by the parser.
+  CHECK_THAT(error(R"({"constraints": [{"type": "waypoint", "time": 1e999, "x": 0, "z": 0}]})"),
+             ContainsSubstring("t.json: not valid JSON") && ContainsSubstring("number overflow"));
 }
