@@ -2,7 +2,8 @@
 # Builds the libFuzzer harnesses of tests/fuzz (clang 14 from scripts/deps.sh,
 # AddressSanitizer) and runs each for N seconds (default 600), then prints a
 # table: executions, coverage (libFuzzer's cov: edges and ft: features of its
-# final stats line) and crashes (crash-, leak-, timeout-, oom- files written).
+# final stats line), crashes (crash-, leak-, timeout-, oom- files written) and
+# slow units (inputs over 10 s: reported, not failures; a hang is a timeout).
 #
 #   bench/fuzz.sh [--seconds N] [--fresh] [harness...]
 #   harnesses: package onnx_scan timeline wordpiece c_api
@@ -108,15 +109,21 @@ rows=()
 for h in "${harnesses[@]}"; do
   make_seeds "$h"
   mkdir -p "$CORPUS/$h" "$FINDINGS/$h"
-  before=$(find "$FINDINGS/$h" -type f | wc -l)
+  # Findings: crash-, leak-, timeout-, oom- files. libFuzzer also keeps slow-unit-
+  # files (an input over 10 s, e.g. on a loaded machine); those are counted apart.
+  findings() { find "$FINDINGS/$h" -type f ! -name 'slow-unit-*' | wc -l; }
+  slow_units() { find "$FINDINGS/$h" -type f -name 'slow-unit-*' | wc -l; }
+  before=$(findings)
+  slow_before=$(slow_units)
   log=$LOGS/$h.log
   status=0
   # -timeout: one input running 30 s is a hang; -rss_limit_mb: ONNX Runtime
   # sessions of the package harness need more than libFuzzer's 2 GB default.
   "$BUILD/fuzz_$h" -max_total_time="$seconds" -timeout=30 -rss_limit_mb=4096 -print_final_stats=1 \
     -artifact_prefix="$FINDINGS/$h/" "$CORPUS/$h" "$SEEDS/$h" >"$log" 2>&1 || status=$?
-  after=$(find "$FINDINGS/$h" -type f | wc -l)
+  after=$(findings)
   crashes=$((after - before))
+  slow=$(($(slow_units) - slow_before))
   # The last stats line: "#1234	DONE   cov: 567 ft: 890 corp: ..." (or the last pulse/NEW line).
   stats=$(grep -E '^#[0-9]+' "$log" | tail -1 || true)
   runs=$(sed -nE 's/^stat::number_of_executed_units: *([0-9]+)/\1/p' "$log" | tail -1)
@@ -124,9 +131,10 @@ for h in "${harnesses[@]}"; do
   cov=$(echo "$stats" | sed -nE 's/.* cov: ([0-9]+).*/\1/p')
   ft=$(echo "$stats" | sed -nE 's/.* ft: ([0-9]+).*/\1/p')
   if [ "$status" -ne 0 ] && [ "$crashes" -eq 0 ]; then crashes=1; fi  # died without an artifact
-  rows+=("$(printf '%-10s %12s %8s %8s %8s' "$h" "${runs:-?}" "${cov:-?}" "${ft:-?}" "$crashes")")
+  rows+=("$(printf '%-10s %12s %8s %8s %8s %10s' "$h" "${runs:-?}" "${cov:-?}" "${ft:-?}" "$crashes" "$slow")")
   if [ "$status" -eq 0 ] && [ "$crashes" -eq 0 ] && [ -n "$cov" ]; then
-    echo "PASS fuzz_$h: ${runs:-?} executions in ${seconds} s, cov ${cov}, ft ${ft:-?}, no crashes"
+    echo "PASS fuzz_$h: ${runs:-?} executions in ${seconds} s, cov ${cov}, ft ${ft:-?}, no crashes" \
+      "(slowest input $(sed -nE 's/^stat::slowest_unit_time_sec: *([0-9]+)/\1/p' "$log" | tail -1) s)"
     passed=$((passed + 1))
   else
     echo "FAIL fuzz_$h: exit status $status, $crashes finding(s) in $FINDINGS/$h (log: $log)"
@@ -136,7 +144,7 @@ for h in "${harnesses[@]}"; do
 done
 
 echo
-printf '%-10s %12s %8s %8s %8s\n' harness executions cov ft crashes
+printf '%-10s %12s %8s %8s %8s %10s\n' harness executions cov ft crashes slow-units
 printf '%s\n' "${rows[@]}"
 echo "corpus: $CORPUS; findings: $FINDINGS; logs: $LOGS"
 echo "$passed passed, $failed failed"

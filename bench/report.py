@@ -44,16 +44,19 @@ def main() -> None:
             if peak
             else ""
         )
-        + " GFLOP: the matrix products of the DDIM part (history graph once, then every "
-        "step's denoiser calls); uncached: what format version 1's one call per step with "
-        "every row recomputing the history and the future tokens would do.\n"
+        + " GFLOP: the matrix products of the DDIM part (history and goals graphs once, then "
+        "every step's denoiser calls); uncached: what format version 1's one call per step "
+        "with every row recomputing the history, the goals and the future tokens would do.\n"
     )
     print(
         "| window, 4 steps | rows | H | F (with goals) | C++ p50 | C++ p99 | DDIM p50 | GFLOP | "
         "GFLOP/s | of peak | uncached GFLOP | PyTorch p50 | PyTorch / C++ (p50) |"
     )
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for key, case in cpp["cases"].items():
+    order = ("text", "waypoints", "full")
+    for key, case in sorted(
+        cpp["cases"].items(), key=lambda item: order.index(item[0])
+    ):
         gflop = case["flops"] / 1e9
         rate = gflop / (case["ddim_4_ms"]["p50"] / 1e3)
         of_peak = f"{100 * rate / peak:.0f} %" if peak else "-"

@@ -8,7 +8,10 @@
 // rows concatenated.
 //
 // Pure: every function here depends only on its arguments (and the immutable
-// ModelPackage); no threads, no clocks, no hidden state. The port follows
+// ModelPackage); no clocks, no hidden state. sample_windows runs graph calls
+// that do not depend on each other at once (std::async; the history and
+// goals graphs, a step's two denoiser calls): the results do not depend on
+// the timing. The port follows
 // export_tools/ardy_export/sampling/{sampler,guidance}.py and diffusion.py
 // operation by operation in float32, so results match the reference up to
 // the graphs' own float differences. The autoregressive state around it is

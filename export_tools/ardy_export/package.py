@@ -53,7 +53,10 @@ FORMAT = "ardy-model-package"
 # projections (goals.onnx) are computed once per window (1: the denoiser took the history
 # tokens and the goals and recomputed both at every call).
 FORMAT_VERSION = 2
-OPSET = 18
+# Opset 23 has Attention and opset 20 Gelu: the exporter writes each attention and GELU as one
+# node instead of about ten, which cuts ONNX Runtime's per-node cost (the denoiser graph 382
+# -> 274 nodes; bench/: windows about 1.3x faster on 2 cores).
+OPSET = 23
 PARITY_ATOL = 1e-4
 MODEL_FILE = "model.json"
 GRAPH_FILES = {

@@ -470,6 +470,9 @@ TEST_CASE("the external-data scanner refuses malformed bytes and finds nothing i
              ContainsSubstring("nested deeper than 64"));
   CHECK(scan::unsafe_path_reason("weights/w.bin").empty());
   CHECK(scan::unsafe_path_reason("w..bin").empty());
+  CHECK(scan::unsafe_path_reason("..w.bin").empty());  // an ordinary name (the fuzzer's first finding was a
+                                                        // harness that thought otherwise)
+  CHECK(scan::unsafe_path_reason("../w.bin") == "has a '..' component (leaves the package)");
   CHECK(scan::unsafe_path_reason("./w.bin") == "has an empty or '.' path component");
   CHECK(scan::unsafe_path_reason("w.bin/..") == "has a '..' component (leaves the package)");
 }
