@@ -23,6 +23,7 @@ export PYTHONPATH="$ROOT/export_tools${PYTHONPATH:+:$PYTHONPATH}"
 
 bash scripts/deps.sh all || { echo "test.sh: setting up dependencies failed" >&2; exit 1; }
 bash scripts/build.sh template_debug || { echo "test.sh: the build failed" >&2; exit 1; }
+setup_seconds=$SECONDS
 
 LOGS=$ROOT/build/test-logs
 mkdir -p "$LOGS"
@@ -31,12 +32,16 @@ total_failed=0
 total_skipped=0
 summary=()
 
+# Each summary line ends with the suite's wall time since the one before it
+# (a suite's own builds included), so the slow ones are easy to find.
+suite_started=$SECONDS
 record() {  # suite passed failed [skipped]
   local skipped=${4:-0}
   total_passed=$((total_passed + $2))
   total_failed=$((total_failed + $3))
   total_skipped=$((total_skipped + skipped))
-  summary+=("$(printf '%-18s %5d passed, %d failed, %d skipped' "$1" "$2" "$3" "$skipped")")
+  summary+=("$(printf '%-18s %5d passed, %d failed, %d skipped %6d s' "$1" "$2" "$3" "$skipped" $((SECONDS - suite_started)))")
+  suite_started=$SECONDS
 }
 
 # ctest runs one executable per suite; each Catch2 suite writes an XML of its
@@ -129,6 +134,7 @@ record "godot" "${gd_passed:-0}" "${gd_failed:-1}"
 
 echo
 echo "== Summary"
+printf '%-48s %6d s\n' "set-up (dependencies, build)" "$setup_seconds"
 printf '%s\n' "${summary[@]}"
 echo "$total_passed passed, $total_failed failed, $total_skipped skipped"
 [ "$total_failed" -eq 0 ]

@@ -286,7 +286,7 @@ double Planner::queued_seconds() const {
   return std::max(0.0, ahead);
 }
 
-bool Planner::fill_frame(const FrameSpan& span, int64_t frame, Pose& out) const {
+void Planner::fill_frame(const FrameSpan& span, int64_t frame, Pose& out) const {
   const FrameBlock& b = *span.block;
   const auto i = static_cast<size_t>(frame - b.start);
   out.root_position = b.root_position[i];
@@ -296,13 +296,16 @@ bool Planner::fill_frame(const FrameSpan& span, int64_t frame, Pose& out) const 
   std::copy_n(b.positions.begin() + static_cast<std::ptrdiff_t>(i * joints_), joints_, out.positions.begin());
   std::copy_n(b.contacts.begin() + static_cast<std::ptrdiff_t>(i * contacts_), contacts_, out.contacts.begin());
   out.window_id = b.window_id;
-  return true;
 }
 
-bool Planner::sample(double t, Pose& out) const {
+void Planner::size_pose(Pose& out) const {
   if (out.local_rotations.size() != joints_) out.local_rotations.resize(joints_);
   if (out.positions.size() != joints_) out.positions.resize(joints_);
   if (out.contacts.size() != contacts_) out.contacts.resize(contacts_);
+}
+
+bool Planner::sample(double t, Pose& out) const {
+  size_pose(out);
   std::lock_guard<std::mutex> lock(frames_mutex_);
   if (spans_.empty()) return false;
   const int64_t first = spans_.front().begin;
@@ -339,14 +342,20 @@ bool Planner::sample(double t, Pose& out) const {
   return true;
 }
 
-bool Planner::frame_at(int64_t frame, Pose& out) const {
-  if (out.local_rotations.size() != joints_) out.local_rotations.resize(joints_);
-  if (out.positions.size() != joints_) out.positions.resize(joints_);
-  if (out.contacts.size() != contacts_) out.contacts.resize(contacts_);
+bool Planner::frame_at(int64_t frame, Pose& out) const { return find_frame(frame, out, false); }
+
+bool Planner::raw_frame_at(int64_t frame, Pose& out) const { return find_frame(frame, out, true); }
+
+bool Planner::find_frame(int64_t frame, Pose& out, bool raw) const {
+  size_pose(out);
   std::lock_guard<std::mutex> lock(frames_mutex_);
   for (const FrameSpan& s : spans_) {
     if (frame >= s.begin && frame < s.end) {
-      fill_frame(s, frame, out);
+      if (raw) {
+        fill_raw_frame(s, frame, out);
+      } else {
+        fill_frame(s, frame, out);
+      }
       out.time = static_cast<double>(frame) / fps_;
       return true;
     }
@@ -371,21 +380,6 @@ void Planner::fill_raw_frame(const FrameSpan& span, int64_t frame, Pose& out) co
   }
   std::copy_n(row + layout.foot_contacts.start, contacts_, out.contacts.begin());
   out.window_id = b.window_id;
-}
-
-bool Planner::raw_frame_at(int64_t frame, Pose& out) const {
-  if (out.local_rotations.size() != joints_) out.local_rotations.resize(joints_);
-  if (out.positions.size() != joints_) out.positions.resize(joints_);
-  if (out.contacts.size() != contacts_) out.contacts.resize(contacts_);
-  std::lock_guard<std::mutex> lock(frames_mutex_);
-  for (const FrameSpan& s : spans_) {
-    if (frame >= s.begin && frame < s.end) {
-      fill_raw_frame(s, frame, out);
-      out.time = static_cast<double>(frame) / fps_;
-      return true;
-    }
-  }
-  return false;
 }
 
 // --- caller side: commands -------------------------------------------------------------

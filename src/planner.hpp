@@ -345,8 +345,11 @@ class Planner {
   void push(Command command, bool asap);
   int64_t playhead_frame() const;  // floor of the playhead in model frames
   int64_t frame_of(double time, const char* what) const;
-  bool fill_frame(const FrameSpan& span, int64_t frame, Pose& out) const;
+  // frame_at and raw_frame_at: the span that holds `frame`, filled shown or raw.
+  bool find_frame(int64_t frame, Pose& out, bool raw) const;
+  void fill_frame(const FrameSpan& span, int64_t frame, Pose& out) const;
   void fill_raw_frame(const FrameSpan& span, int64_t frame, Pose& out) const;
+  void size_pose(Pose& out) const;  // the pose's arrays to this model's joints and contacts
 
   // worker side
   void worker_main();

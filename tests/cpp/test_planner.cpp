@@ -47,6 +47,9 @@ constexpr int64_t kPatch = 4;
 
 int64_t token_ceil(int64_t f) { return (f + kPatch - 1) / kPatch * kPatch; }
 
+// The smooth double's fastest turn: 180 degrees a second.
+constexpr double kMaxTurnPerFrame = M_PI / kFps;
+
 // The smooth stand-in for a trained model: continues the last history frame
 // with its velocity, blending to a velocity chosen by the prompt (turned by
 // 90 degrees when the window has constraints); the whole body turns with the
@@ -95,7 +98,13 @@ WindowResult smooth_window(const ardy::ModelPackage& p, const WindowInput& in) {
     const double a = double(f + 1) / double(g);
     const glm::dvec2 v = vel + (target - vel) * a;
     pos += v / p.fps();
-    if (glm::length(v) > 1e-3) psi = std::atan2(v.x, v.y);
+    // The heading turns toward the velocity at a bounded rate, as a body
+    // does: from rest a sideways target must not snap it round (a jump of
+    // the double's own, not the planner's).
+    if (glm::length(v) > 1e-3) {
+      const double turn = std::remainder(std::atan2(v.x, v.y) - psi, 2.0 * M_PI);
+      psi += std::clamp(turn, -kMaxTurnPerFrame, kMaxTurnPerFrame);
+    }
     float* row = out.features.data() + f * m;
     row[layout.root_position.start + 0] = float(pos.x);
     row[layout.root_position.start + 1] = 0.9f;
