@@ -40,7 +40,7 @@ def main() -> None:
         "(4 context tokens) + features + FK."
         + (
             f" Peak: a {cpp['probe_size']}-square MatMul in ONNX Runtime reaches {peak:.1f} "
-            "GFLOP/s with these threads."
+            "GFLOP/s on every core."
             if peak
             else ""
         )

@@ -4,7 +4,8 @@
 #
 #   bench/run.sh                          # random-weight package of the default size
 #   bench/run.sh --package DIR --checkpoint CKPT.pt   # a trained package and its checkpoint
-#   options: --threads N (default: all cores), --repeats N (default 30),
+#   options: --threads N (C++ intra-op threads; default: the runtime's, all cores but one;
+#            PyTorch always gets every core, its fastest), --repeats N (default 30),
 #            --crowd-seconds S (real-time play of each crowd; default 10), --crowds LIST
 #            (planners per crowd; default 8,16,50; "" for none),
 #            --future-tokens N (future goal tokens; default: the model's maximum, as the planner),
@@ -21,7 +22,8 @@ set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 PACKAGE=""
 CHECKPOINT=""
-THREADS=$(nproc)
+THREADS=""
+TORCH_THREADS=$(nproc)
 REPEATS=30
 TINY_TEXT=""
 REFERENCE=1
@@ -75,14 +77,14 @@ fi
 [ -f "$PACKAGE/model.json" ] || { echo "bench: $PACKAGE has no model.json" >&2; exit 1; }
 
 "$PY" "$ROOT/bench/make_probe.py" --out "$OUT/matmul_probe.onnx"
-echo "bench: C++ runtime on $PACKAGE ($THREADS threads)" >&2
-"$BUILD/src/ardy-bench" --package "$PACKAGE" --threads "$THREADS" --repeats "$REPEATS" \
+echo "bench: C++ runtime on $PACKAGE (${THREADS:-the runtime's default} intra-op threads)" >&2
+"$BUILD/src/ardy-bench" --package "$PACKAGE" ${THREADS:+--threads "$THREADS"} --repeats "$REPEATS" \
   --future-tokens "$FUTURE" $SPIN $SHARED --probe "$OUT/matmul_probe.onnx" --crowd-seconds "$CROWD_SECONDS" \
   --crowds "$CROWDS" --json "$OUT/cpp.json" ${LABEL:+--label "$LABEL"} >"$OUT/cpp.md"
 
 if [ "$REFERENCE" = 1 ] && [ -n "$CHECKPOINT" ]; then
-  echo "bench: PyTorch reference on $CHECKPOINT ($THREADS threads)" >&2
-  "$PY" "$ROOT/bench/reference.py" --checkpoint "$CHECKPOINT" --threads "$THREADS" --repeats "$REPEATS" \
+  echo "bench: PyTorch reference on $CHECKPOINT ($TORCH_THREADS threads)" >&2
+  "$PY" "$ROOT/bench/reference.py" --checkpoint "$CHECKPOINT" --threads "$TORCH_THREADS" --repeats "$REPEATS" \
     --future-tokens "$FUTURE" --json "$OUT/torch.json" >/dev/null
   "$PY" "$ROOT/bench/report.py" "$OUT/cpp.json" "$OUT/torch.json" | tee "$OUT/report.md"
 else

@@ -143,8 +143,12 @@ void FootLocker::apply(const float* features, Motion& motion, FootLockState& sta
         s.return_step = step;
         s.offset = left > 0.0f ? s.offset * ((left - step) / left) : glm::vec2(0.0f);
         if (glm::length(s.offset) < 1e-4f) {
+          // Back on the path: a foot let go while still down (a standing
+          // model's foot drifting) may be held again, or it would slide on
+          // for as long as the flags stay up.
           s.offset = glm::vec2(0.0f);
           s.returning = false;
+          s.let_go = false;
         }
         target = own + s.offset;
       }

@@ -55,7 +55,8 @@ constexpr float kFootLiftFlag = 0.4f;
 // Above this ankle height (m) a foot is never held, whatever its flags say.
 constexpr float kFootLockHeight = 0.2f;
 // A held ankle further than this (m) from the model's own is let go (the
-// body has moved on: a root target dragged it, say).
+// body has moved on: a root target dragged it, say); once back on the
+// model's path it may be held again.
 constexpr float kFootLockMaxPull = 0.25f;
 
 // What carries over from one shown frame to the next, per leg.
@@ -71,7 +72,7 @@ struct FootLockState {
     glm::vec2 own_before{0.0f};    // the model's ankle (x, z) last frame
     glm::vec3 knee_before{0.0f};   // the model's knee last frame
     glm::vec3 knee_shown{0.0f};    // the knee as shown last frame
-    bool let_go = false;           // pulled too far: not held again until the flags drop
+    bool let_go = false;           // pulled too far: not held again until the flags drop or it is back on the path
     size_t held = 0;               // frames held so far (the hold eases in)
   };
   std::array<Leg, 2> legs;

@@ -205,3 +205,33 @@ TEST_CASE("flags wavering around one half do not make a held foot flicker", "[fo
   locker.apply(high.data(), raised, none);
   CHECK(raised.positions == own.positions);
 }
+
+TEST_CASE("a foot let go while still down is held again once back on the model's path", "[foot_lock]") {
+  // A standing model whose planted foot drifts (waving, say): flags down
+  // throughout, the body sliding 0.3 m/s. The hold lets go at
+  // kFootLockMaxPull, the foot returns to the model's path, then is held
+  // again: most frames held, not a foot that slides on once let go.
+  const ardy::ModelPackage& p = *tiny_package();
+  const FootLocker locker(p.skeleton(), p.layout(), p.contact_joints());
+  const size_t frames = 80;
+  const std::vector<float> features = gliding(frames, 0.3, [](size_t) { return 1.0f; });
+  Motion locked = motion_of(features);
+  FootLockState state;
+  std::vector<FootLockState> states;
+  locker.apply(features.data(), locked, state, &states);
+  size_t held = 0, holds = 0;
+  for (size_t f = 0; f < frames; ++f) {
+    if (states[f].legs[0].planted) ++held;
+    if (states[f].legs[0].planted && (f == 0 || !states[f - 1].legs[0].planted)) ++holds;
+  }
+  INFO(held << " of " << frames << " frames held, in " << holds << " holds");
+  CHECK(holds >= 2);
+  CHECK(held >= frames / 2);
+  // The let-go foot moves no faster than the return's bound.
+  const float own_step = 0.3f / float(p.fps());
+  for (size_t f = 1; f < frames; ++f) {
+    INFO("frame " << f);
+    const float step = glm::length(joint(locked, f, "Foot_L") - joint(locked, f - 1, "Foot_L"));
+    CHECK(step <= (1.0f + ardy::kFootReturnShare) * own_step + ardy::kFootReturnFloorStep + 1e-4f);
+  }
+}
