@@ -5,9 +5,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <limits>
 #include <map>
+#include <mutex>
 #include <new>
 #include <set>
 #include <sstream>
@@ -194,7 +196,31 @@ struct OnnxEnvironment::Impl {
   bool shared_pool = false;
 };
 
+namespace {
+
+// ONNX Runtime's release builds for Linux carry Microsoft's 1DS telemetry: a
+// background thread started with the first environment resolves
+// mobile.events.data.microsoft.com and posts events some seconds later,
+// whatever DisableTelemetryEvents says (seen under strace; the fuzzer's leak
+// check caught that thread's allocations). A game's runtime makes no network
+// calls: ORT_DISABLE_TELEMETRY=1 before the first environment turns it off.
+// A value the host process set itself is left alone.
+void disable_onnx_telemetry() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    if (std::getenv(kOrtTelemetryVariable) != nullptr) return;
+#ifdef _WIN32
+    _putenv_s(kOrtTelemetryVariable, "1");
+#else
+    setenv(kOrtTelemetryVariable, "1", 0);
+#endif
+  });
+}
+
+}  // namespace
+
 OnnxEnvironment::OnnxEnvironment(const EnvironmentOptions& options) {
+  disable_onnx_telemetry();
   // The C++ header resolves the API table at static-init time; a runtime
   // older than the headers yields null there and every call would crash.
   if (Ort::Global<void>::api_ == nullptr) {
@@ -217,6 +243,7 @@ OnnxEnvironment::OnnxEnvironment(const EnvironmentOptions& options) {
     } else {
       impl_ = std::make_unique<Impl>(Impl{Ort::Env(ORT_LOGGING_LEVEL_WARNING, "ardy"), false});
     }
+    impl_->env.DisableTelemetryEvents();  // the documented switch; see disable_onnx_telemetry
   } catch (const Ort::Exception& e) {
     throw Error(std::string("ONNX Runtime: cannot create the environment (") + e.what() + ")");
   }

@@ -28,8 +28,13 @@ struct EnvironmentOptions {
   bool allow_spinning = false;  // idle threads of the shared pool spin
 };
 
-// One ONNX Runtime environment (logging level warning, log id "ardy"), shared
-// by every session through std::shared_ptr so it outlives all of them.
+// The environment variable that turns ONNX Runtime's telemetry off; the first
+// OnnxEnvironment sets it to 1 unless the process already has it.
+constexpr const char* kOrtTelemetryVariable = "ORT_DISABLE_TELEMETRY";
+
+// One ONNX Runtime environment (logging level warning, log id "ardy", no
+// telemetry), shared by every session through std::shared_ptr so it outlives
+// all of them.
 class OnnxEnvironment {
  public:
   // Throws Error when the loaded libonnxruntime cannot serve the API version

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <functional>
 #include <limits>
 #include <random>
@@ -83,6 +84,16 @@ Tensor first_rows(const Tensor& t, int64_t rows) {
 TEST_CASE("the environment reports the loaded runtime version", "[onnx_session]") {
   CHECK_THAT(OnnxEnvironment::runtime_version(), ContainsSubstring("1."));
   CHECK(shared_env() != nullptr);
+}
+
+TEST_CASE("the environment turns ONNX Runtime's telemetry off before it starts", "[onnx_session]") {
+  // Without it ONNX Runtime's Linux build posts events to Microsoft some
+  // seconds after the first environment. The tests do not set the variable
+  // themselves, so "1" here is the runtime's doing.
+  const auto environment = OnnxEnvironment::create();
+  const char* value = std::getenv(ardy::kOrtTelemetryVariable);
+  REQUIRE(value != nullptr);
+  CHECK(std::string(value) == "1");
 }
 
 TEST_CASE("intra-op thread count resolves to all cores but one, at least one", "[onnx_session]") {

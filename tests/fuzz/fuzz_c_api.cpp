@@ -213,7 +213,8 @@ void planner_call(Script& s, ardy_planner* p, uint8_t op, std::vector<uint64_t>&
       break;
     }
     case 15: {
-      const std::string name = s.text(32);
+      // What a C caller passes: the text up to its first NUL.
+      const std::string name = s.text(32).c_str();
       const int32_t index = ardy_model_joint_index(m, name.c_str());
       if (index >= 0 && name != ardy_model_joint_name(m, static_cast<size_t>(index))) {
         ardy_fuzz::broken("joint_index and joint_name disagree for '" + name + "'");

@@ -23,6 +23,10 @@ from pathlib import Path
 
 import pytest
 
+# No telemetry from ONNX Runtime in the tests, even those that import it before
+# ardy_export (which sets the same; see its __init__).
+os.environ.setdefault("ORT_DISABLE_TELEMETRY", "1")
+
 REPO_ROOT = Path(__file__).resolve().parents[2]
 BANDAI_ARCHIVES = ("dataset-1.tar.xz", "dataset-2.tar.xz")
 
