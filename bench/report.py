@@ -32,7 +32,7 @@ def main() -> None:
     den = cpp["denoiser"]
     print(
         f"{cpp['cores']} cores; C++: ONNX Runtime {cpp['onnxruntime']}, "
-        f"{cpp['threads']} intra-op threads"
+        f"{cpp['threads']} intra-op thread{'' if cpp['threads'] == 1 else 's'}"
         + (" (spinning)" if cpp.get("spinning") else "")
         + (f"; PyTorch {ref['torch']}, {ref['threads']} threads" if ref else "")
         + f". Denoiser {den['stages']} x {den['layers']} layers, width {den['width']}; windows of "

@@ -77,7 +77,7 @@ fi
 [ -f "$PACKAGE/model.json" ] || { echo "bench: $PACKAGE has no model.json" >&2; exit 1; }
 
 "$PY" "$ROOT/bench/make_probe.py" --out "$OUT/matmul_probe.onnx"
-echo "bench: C++ runtime on $PACKAGE (${THREADS:-the runtime's default} intra-op threads)" >&2
+echo "bench: C++ runtime on $PACKAGE (intra-op threads: ${THREADS:-the runtime default})" >&2
 "$BUILD/src/ardy-bench" --package "$PACKAGE" ${THREADS:+--threads "$THREADS"} --repeats "$REPEATS" \
   --future-tokens "$FUTURE" $SPIN $SHARED --probe "$OUT/matmul_probe.onnx" --crowd-seconds "$CROWD_SECONDS" \
   --crowds "$CROWDS" --json "$OUT/cpp.json" ${LABEL:+--label "$LABEL"} >"$OUT/cpp.md"
