@@ -11,9 +11,11 @@ from ardy_export.data.labels import mirror_content
 from ardy_export.data.split import (
     SPLIT_PATH,
     check_split,
+    group_sentences,
     load_split,
     make_split,
     save_split,
+    sentence_twins,
     split_of,
 )
 from conftest import processed_dir
@@ -68,6 +70,35 @@ def test_split_holds_out_whole_groups_and_covers_labels_in_training() -> None:
     assert split_of(("dataset-x", "walk", "normal"), held_set) == "train"
 
 
+def test_split_returns_held_out_groups_whose_sentences_training_has() -> None:
+    """Aliases share sentences: a held-out group with a training twin goes back to training,
+    with its mirror, and nothing else moves."""
+    groups = synthetic_groups()
+    plain = make_split(groups, seed=3, test_fraction=0.2, min_train_groups=2)
+
+    def prompts(group: tuple[str, str, str]) -> frozenset[str]:
+        # "old" and "tired" are one style under two names, whatever the dataset
+        style = "old" if group[2] == "tired" else group[2]
+        return frozenset({f"{group[1]} {style}", f"a person {group[1]}s, {style}"})
+
+    sentences = {g: prompts(g) for g in groups}
+    twins = sentence_twins(groups, set(plain), sentences)
+    assert twins, "the synthetic split should hold out some alias of a training group"
+    assert check_split(groups, set(plain), sentences) != []
+    held = make_split(groups, seed=3, test_fraction=0.2, min_train_groups=2, sentences=sentences)
+    assert sentence_twins(groups, set(held), sentences) == []
+    assert check_split(groups, set(held), sentences) == []
+    assert set(held) < set(plain)
+    returned = set(plain) - set(held)
+    for group, _ in twins:
+        assert group in returned
+        mirror = (group[0], mirror_content(group[1]), group[2])
+        assert mirror not in groups or mirror in returned
+    # only twins and their mirrors go back
+    twin_units = {g for g, _ in twins} | {(g[0], mirror_content(g[1]), g[2]) for g, _ in twins}
+    assert returned <= twin_units
+
+
 def test_split_is_deterministic(tmp_path: Path) -> None:
     groups = synthetic_groups()
     first = make_split(groups, seed=11, test_fraction=0.15)
@@ -87,7 +118,8 @@ def test_committed_split_is_valid_for_the_real_data() -> None:
     assert len(held) == len(data["held_out"]) > 0
     groups = set(archive_groups("dataset-1")) | set(archive_groups("dataset-2"))
     assert held <= groups, sorted(held - groups)
-    assert check_split(groups, held) == []
+    # no test prompt is a training prompt (style aliases and the two datasets share them)
+    assert check_split(groups, held, group_sentences(groups)) == []
     for dataset in ("dataset-1", "dataset-2"):
         assert any(g[0] == dataset for g in held)
 
@@ -101,11 +133,13 @@ def test_committed_split_regenerates_identically(tmp_path: Path) -> None:
 
     config = load_data_config()
     index = json.loads(index_path.read_text(encoding="utf-8"))["clips"]
+    frames = group_frames(index)
     held = make_split(
-        group_frames(index),
+        frames,
         config.split_seed,
         config.split_test_fraction,
         config.split_min_train_groups,
+        group_sentences(frames),
     )
     out = tmp_path / "split.json"
     save_split(

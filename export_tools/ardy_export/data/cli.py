@@ -69,7 +69,13 @@ def _prepare(args: argparse.Namespace) -> int:
 
 def _make_split(args: argparse.Namespace) -> int:
     from ardy_export.data.dataset import group_frames, load_index
-    from ardy_export.data.split import SPLIT_PATH, check_split, make_split, save_split
+    from ardy_export.data.split import (
+        SPLIT_PATH,
+        check_split,
+        group_sentences,
+        make_split,
+        save_split,
+    )
 
     config = _config(args)
     processed = Path(args.processed or config.out)
@@ -79,10 +85,15 @@ def _make_split(args: argparse.Namespace) -> int:
         print(f"ardy-export data make-split: {error}", file=sys.stderr)
         return 1
     frames = group_frames(index)
+    sentences = group_sentences(frames)
     held_out = make_split(
-        frames, config.split_seed, config.split_test_fraction, config.split_min_train_groups
+        frames,
+        config.split_seed,
+        config.split_test_fraction,
+        config.split_min_train_groups,
+        sentences,
     )
-    problems = check_split(frames, set(held_out))
+    problems = check_split(frames, set(held_out), sentences)
     for problem in problems:
         print(f"warning: {problem}", file=sys.stderr)
     out = Path(args.out) if args.out else SPLIT_PATH

@@ -39,7 +39,14 @@ from ardy_export.data.contacts import (
 from ardy_export.data.features import FEATURE_SIZE, features_from_motion, joint_velocities
 from ardy_export.data.labels import parse_clip_name, read_clip_labels, read_label_names
 from ardy_export.data.skeleton import default_skeleton, motion_from_bvh, resample_motion
-from ardy_export.data.split import SPLIT_PATH, Group, load_split, make_split, split_of
+from ardy_export.data.split import (
+    SPLIT_PATH,
+    Group,
+    group_sentences,
+    load_split,
+    make_split,
+    split_of,
+)
 
 PIPELINE_VERSION = 1
 ARCHIVE_GLOB = "dataset-*.tar.xz"
@@ -139,12 +146,14 @@ def _held_out_groups(index: list[dict[str, Any]], split_path: Path, config: Data
         "'ardy-export data make-split' to write it",
         stacklevel=2,
     )
+    frames = group_frames(index)
     return set(
         make_split(
-            group_frames(index),
+            frames,
             config.split_seed,
             config.split_test_fraction,
             config.split_min_train_groups,
+            group_sentences(frames),
         )
     )
 

@@ -10,6 +10,15 @@ The choice is deterministic: candidate units are ordered by a SHA-256 hash of th
 the unit's names (independent of numpy versions and platforms) and taken greedily, in
 passes that allow at most 1, 2, ... held-out groups per content and per style (so the test
 set spreads over the labels), until ``test_fraction`` of the dataset's frames is held out.
+
+Prompts are sentences, and sentences ignore the dataset and style aliases (dataset-1
+``walk / masculinity`` and dataset-2 ``walk / masculine`` get the same ones). When the
+groups' sentences are given, a held-out unit that shares a sentence with a training group is
+returned to training after the draw (repeated until none does), so that no test prompt was
+ever paired with motion in training. Returning units (rather than re-drawing) keeps every
+other held-out group where it was: a model trained on the earlier split is still evaluated
+only on groups it never saw. The test fraction can end below ``test_fraction``.
+
 The result is committed as ``split.json`` next to this module;
 ``ardy-export data make-split`` regenerates it.
 """
@@ -19,7 +28,7 @@ from __future__ import annotations
 import hashlib
 import json
 from collections import defaultdict
-from collections.abc import Iterable, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from pathlib import Path
 
 from ardy_export.data.labels import mirror_content
@@ -37,8 +46,10 @@ def make_split(
     seed: int,
     test_fraction: float,
     min_train_groups: int = 2,
+    sentences: Mapping[Group, Collection[str]] | None = None,
 ) -> list[Group]:
-    """The held-out groups (sorted) for the given groups and their frame counts."""
+    """The held-out groups (sorted) for the given groups and their frame counts; with
+    ``sentences`` (each group's prompts), none shares a sentence with a training group."""
     if not 0.0 < test_fraction < 1.0:
         raise ValueError(f"test_fraction must be in (0, 1), got {test_fraction}")
     held_out: list[Group] = []
@@ -47,15 +58,7 @@ def make_split(
         by_dataset[group[0]].append(group)
     for dataset in sorted(by_dataset):
         groups = sorted(by_dataset[dataset])
-        units: list[tuple[Group, ...]] = []
-        seen: set[Group] = set()
-        for group in groups:
-            if group in seen:
-                continue
-            mirror = _mirror_group(group)
-            unit = (group,) if mirror == group or mirror not in group_frames else (group, mirror)
-            seen.update(unit)
-            units.append(tuple(sorted(unit)))
+        units = _units(groups, group_frames)
 
         def order_key(unit: tuple[Group, ...]) -> str:
             text = f"{seed}|" + "|".join("/".join(g) for g in unit)
@@ -96,7 +99,68 @@ def make_split(
                 taken.add(unit)
                 held_out.extend(unit)
                 held_frames += sum(group_frames[g] for g in unit)
+    if sentences is not None:
+        held_out = _without_sentence_twins(held_out, group_frames, sentences)
     return sorted(held_out)
+
+
+def _units(chosen: Iterable[Group], groups: Collection[Group]) -> list[tuple[Group, ...]]:
+    """Groups as units that go together: a group with its mirror image when that is one of
+    ``groups`` too."""
+    units: list[tuple[Group, ...]] = []
+    seen: set[Group] = set()
+    for group in sorted(chosen):
+        if group in seen:
+            continue
+        mirror = _mirror_group(group)
+        unit = (group,) if mirror == group or mirror not in groups else (group, mirror)
+        seen.update(unit)
+        units.append(tuple(sorted(unit)))
+    return units
+
+
+def _without_sentence_twins(
+    held_out: list[Group],
+    group_frames: Mapping[Group, int],
+    sentences: Mapping[Group, Collection[str]],
+) -> list[Group]:
+    held = set(held_out)
+    while True:
+        training_sentences = {s for g in group_frames if g not in held for s in sentences[g]}
+        twins = [
+            unit
+            for unit in _units(held, group_frames)
+            if any(s in training_sentences for g in unit for s in sentences[g])
+        ]
+        if not twins:
+            return sorted(held)
+        for unit in twins:
+            held.difference_update(unit)
+
+
+def group_sentences(groups: Iterable[Group]) -> dict[Group, frozenset[str]]:
+    """Every sentence of each group's label (``text.sentences``, the training prompts)."""
+    from ardy_export.text.sentences import sentences_for
+
+    return {group: frozenset(sentences_for(*group)) for group in groups}
+
+
+def sentence_twins(
+    groups: Iterable[Group], held_out: set[Group], sentences: Mapping[Group, Collection[str]]
+) -> list[tuple[Group, Group]]:
+    """(held-out group, training group) pairs that share a sentence, sorted."""
+    groups = set(groups)
+    by_sentence: dict[str, list[Group]] = defaultdict(list)
+    for group in sorted(groups - held_out):
+        for sentence in sentences[group]:
+            by_sentence[sentence].append(group)
+    pairs = {
+        (group, twin)
+        for group in held_out & groups
+        for sentence in sentences[group]
+        for twin in by_sentence.get(sentence, [])
+    }
+    return sorted(pairs)
 
 
 def save_split(
@@ -135,9 +199,14 @@ def split_of(group: Group, held_out: set[Group]) -> str:
     return "test" if group in held_out else "train"
 
 
-def check_split(groups: Iterable[Group], held_out: set[Group]) -> list[str]:
+def check_split(
+    groups: Iterable[Group],
+    held_out: set[Group],
+    sentences: Mapping[Group, Collection[str]] | None = None,
+) -> list[str]:
     """Problems with a split (empty list when fine): a content or style of a dataset with no
-    training group, or a held-out group whose mirror image is in training."""
+    training group, a held-out group whose mirror image is in training, or (with
+    ``sentences``) a held-out group that shares a sentence with a training group."""
     groups = set(groups)
     problems: list[str] = []
     for dataset in sorted({g[0] for g in groups}):
@@ -151,4 +220,9 @@ def check_split(groups: Iterable[Group], held_out: set[Group]) -> list[str]:
         mirror = _mirror_group(group)
         if mirror in groups and mirror not in held_out:
             problems.append(f"{'/'.join(group)} is held out but its mirror {mirror[1]} is not")
+    if sentences is not None:
+        for group, twin in sentence_twins(groups, held_out, sentences):
+            problems.append(
+                f"{'/'.join(group)} is held out but shares sentences with {'/'.join(twin)}"
+            )
     return problems
