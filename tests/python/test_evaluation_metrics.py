@@ -124,3 +124,44 @@ def test_multimodal_distance() -> None:
     a = np.array([[1.0, 0.0], [0.0, 1.0]])
     assert metrics.multimodal_distance(a, a) == 0.0
     assert metrics.multimodal_distance(a, -a) == pytest.approx(2.0)
+
+
+def test_seam_jerk_finds_a_jump_at_every_patch_seam() -> None:
+    # A smooth line plus a 1 cm step at every 4th frame (frame 0 starts a patch): the third
+    # differences centred on a seam see the steps, those inside a patch do not.
+    frames = 40
+    p = np.zeros((frames, JOINT_COUNT, 3))
+    p[..., 0] = (np.arange(frames) * 0.05)[:, None]
+    p[..., 1] = 1.0
+    p[..., 2] = (0.01 * (np.arange(frames) // 4))[:, None]
+    seams = metrics.seam_jerk(p, FPS, 4)
+    assert seams["inside_patches"] == pytest.approx(0.0, abs=1e-9)
+    assert seams["across_seams"] == pytest.approx(0.01 * 2 * FPS**3)  # h - 3h + 0 - 0
+    # Shifted by two frames the seams fall inside the "inside" entries instead.
+    shifted = metrics.seam_jerk(p[2:], FPS, 4)
+    assert shifted["across_seams"] == pytest.approx(0.0, abs=1e-9)
+    assert shifted["inside_patches"] > 0
+    smooth = p.copy()
+    smooth[..., 2] = (np.arange(frames) ** 3 * 1e-4)[:, None]
+    assert metrics.seam_jerk([smooth], FPS, 4)["ratio"] == pytest.approx(1.0)
+
+
+def test_contact_agreement_against_the_data_rule() -> None:
+    p = sliding_foot()
+    rule = contacts.compute_contacts(p, fps=FPS)
+    assert metrics.contact_agreement(p, rule, FPS) == pytest.approx(1.0)
+    # Flags that claim "no contact" everywhere agree exactly where the rule says no contact.
+    none = np.zeros_like(rule)
+    assert metrics.contact_agreement([p], [none], FPS) == pytest.approx(1.0 - rule.mean())
+    flipped = 1.0 - rule
+    assert metrics.contact_agreement(p, flipped, FPS) == pytest.approx(0.0)
+    with pytest.raises(ValueError, match="one contact array per clip"):
+        metrics.contact_agreement([p, p], [rule], FPS)
+
+
+def test_balanced_indices_draw_the_same_number_of_every_label() -> None:
+    labels = np.array([0] * 50 + [1] + [2] * 3)
+    picks = metrics.balanced_indices(labels, 8, seed=0)
+    assert len(picks) == 24
+    assert np.bincount(labels[picks]).tolist() == [8, 8, 8]
+    assert np.array_equal(picks, metrics.balanced_indices(labels, 8, seed=0))  # fixed seed

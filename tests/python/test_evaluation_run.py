@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -215,6 +216,8 @@ def test_report_lists_every_section_and_marks_missed_bars(tmp_path: Path) -> Non
     }
     path = report.write_report(results, tmp_path)
     text = path.read_text()
+    assert "## Against the paper" in text and "## Reading these numbers" in text
+    assert "## Against the previous package" not in text  # no previous.json
     for heading in (
         "Text to motion",
         "Constraints",
@@ -228,3 +231,108 @@ def test_report_lists_every_section_and_marks_missed_bars(tmp_path: Path) -> Non
     assert text.count("**missed**") == 2  # skate ratio and the between-frames waypoint error
     for png in ("response.png", "stability.png", "contact_sheet.png"):
         assert (tmp_path / png).stat().st_size > 5000
+
+
+def test_response_summary_counts_pairs_that_never_respond() -> None:
+    nan = float("nan")
+    # 2 of 5 pairs never respond: counted as the 6 s after the change they enter the median.
+    summary = run._summary([0.5, 1.0, 1.5, nan, nan], 6.0)
+    assert summary["median_responders"] == pytest.approx(1.0)
+    assert summary["median"] == pytest.approx(1.5)
+    assert not summary["median_at_least"]
+    assert (summary["responded"], summary["total"]) == (3, 5)
+    assert summary["mean"] == pytest.approx(1.0)
+    # Most never respond: the median is a non-responder's, a lower bound.
+    late = run._summary([0.5, nan, nan], 6.0)
+    assert late["median"] == pytest.approx(6.0) and late["median_at_least"]
+    assert late["median_responders"] == pytest.approx(0.5)
+
+
+def test_balanced_halves_are_disjoint_and_balanced() -> None:
+    labels = np.array([0] * 40 + [1] * 2 + [2])  # label 2 has a single crop: left out
+    a, b = run.balanced_halves(labels, 5, seed=0)
+    assert not set(a.tolist()) & set(b.tolist())
+    assert np.bincount(labels[a], minlength=3).tolist() == [5, 5, 0]
+    assert np.bincount(labels[b], minlength=3).tolist() == [5, 5, 0]
+
+
+def _results(skate: float, r_prec: float, response: dict, **text_extra: object) -> dict:
+    data = {
+        "foot_skate": 0.1,
+        "r_precision_top3": 0.9,
+        "fid": 0.03,
+        "fid_balanced": 0.2,
+        "jerk": 60.0,
+        "count": 40,
+        "contact_agreement": 1.0,
+        "seam_jerk": {"across_seams": 30.0, "inside_patches": 30.0, "ratio": 1.0},
+    }
+    ours = {
+        "foot_skate": skate,
+        "r_precision_top3": r_prec,
+        "fid": 0.61,
+        "fid_balanced": 0.45,
+        "jerk": 45.0,
+        "count": 8,
+        "contact_agreement": 0.683,
+        "seam_jerk": {"across_seams": 60.0, "inside_patches": 20.0, "ratio": 3.0},
+    }
+    raw = {
+        **ours,
+        "foot_skate": 0.5,
+        "jerk": 390.0,
+        "seam_jerk": {"across_seams": 700.0, "inside_patches": 200.0, "ratio": 3.5},
+    }
+    return {
+        "model": {"path": "pkg", "provenance": {"checkpoint": f"c{skate}.pt", "commit": "abc"}},
+        "text": {
+            "rows": {
+                "dataset (test split)": data,
+                "ours, 4 steps": ours,
+                "ours, 4 steps, unfiltered": raw,
+            },
+            "paraphrase_rows": {"ours, 4 steps": {**ours, "r_precision_top3": 0.375}},
+            "r_precision_chance": 3 / 31,
+            "r_precision_pool": 31,
+            "labels": 31,
+            **text_extra,
+        },
+        "response": {
+            "pairs": 3,
+            "after_seconds": 6.0,
+            "response_seconds": response,
+            "evaluator_delay_on_real_seconds": run._summary([0.5, 0.75], 6.0),
+            "jerk_around_change": 60.0,
+            "jerk_overall": 50.0,
+            "window_seconds": 2.0,
+            "curves": [],
+        },
+    }
+
+
+def test_report_figures_come_from_the_results(tmp_path: Path) -> None:
+    nan = float("nan")
+    now = _results(0.22, 0.512, run._summary([1.0, nan, nan], 6.0))
+    text = report.write_report(now, tmp_path).read_text()
+    # The prose quotes the results, not hand-written figures.
+    assert "**Foot skate is 2.20x the test clips'**" in text
+    assert "R-precision 0.512 against 0.900" in text
+    assert "0.375 with held-out paraphrases" in text
+    assert "3.5x that inside a patch" in text and "68 % of the time" in text
+    # Response: both medians, the all-pairs one a lower bound here.
+    assert "| ours | >= 6.00 | 1.00 | 1.00 | 1/3 |" in text
+    assert "counts a pair that never responds as 6 s" in text
+    # Paper comparison: our ratio to our data next to the paper's (1.04x skate, 0.86x R-prec).
+    assert "| foot skate (m/s) | 0.220 | 0.100 | 2.20x | 0.264 | 0.255 | 1.04x |" in text
+    assert "| R-precision top-3 | 0.512 | 0.900 | 0.57x | 0.655 | 0.766 | 0.86x |" in text
+    # In-bank vs paraphrase, and the new columns.
+    assert "| ours, 4 steps | 0.512 | 0.375 | 0.73x |" in text
+    assert "| ours, 4 steps, unfiltered | 0.683 | 700.0 | 200.0 | 3.50 |" in text
+    # A previous package's results.json copied to previous.json is shown next to this one.
+    old = _results(0.34, 0.496, run._summary([1.5, 2.0, nan], 6.0))
+    (tmp_path / "previous.json").write_text(json.dumps(old))
+    text = report.write_report(now, tmp_path).read_text()
+    assert "## Against the previous package" in text
+    assert "`c0.34.pt`" in text
+    assert "| R-precision top-3, in-bank | 0.512 | 0.496 |" in text
+    assert "| response median, all pairs (s) | >= 6.00 | 2.00 |" in text

@@ -58,7 +58,30 @@ def _report(args: argparse.Namespace) -> int:
 def _ablations(args: argparse.Namespace) -> int:
     from ardy_export.evaluation.report import write_ablation_table
 
-    print(f"wrote {write_ablation_table(Path(args.runs), Path(args.main), Path(args.out))}")
+    print(f"wrote {write_ablation_table(Path(args.runs), Path(args.out))}")
+    return 0
+
+
+def _tokenizer(args: argparse.Namespace) -> int:
+    import json
+
+    import numpy as np
+
+    from ardy_export.evaluation.roundtrip import evaluate_tokenizer
+    from ardy_export.training.denoiser_train import tokenizer_from_checkpoint
+
+    try:
+        tokenizer, ckpt = tokenizer_from_checkpoint(Path(args.checkpoint))
+        mean = np.asarray(ckpt["stats"]["mean"], np.float64)
+        std = np.asarray(ckpt["stats"]["std"], np.float64)
+        result = evaluate_tokenizer(tokenizer, mean, std, args.data, args.split)
+    except (FileNotFoundError, ValueError) as error:
+        print(f"ardy-export eval tokenizer: {error}", file=sys.stderr)
+        return 1
+    text = json.dumps(result, indent=1)
+    if args.out:
+        Path(args.out).write_text(text + "\n", encoding="utf-8")
+    print(text)
     return 0
 
 
@@ -88,8 +111,16 @@ def add_eval_commands(commands: argparse._SubParsersAction) -> None:  # type: ig
     p = sub.add_parser("report", help="rewrite the report from OUT/results.json")
     p.add_argument("--out", default="docs/evaluation", help="(default: %(default)s)")
     p.set_defaults(handler=_report)
+    p = sub.add_parser(
+        "tokenizer",
+        help="encode and decode the test clips: skate, seam jerk, contacts, joint error",
+    )
+    p.add_argument("--checkpoint", required=True, help="tokenizer or denoiser checkpoint")
+    p.add_argument("--data", default="data/processed", help="(default: %(default)s)")
+    p.add_argument("--split", default="test", choices=("train", "test"))
+    p.add_argument("--out", help="also write the figures to this JSON file")
+    p.set_defaults(handler=_tokenizer)
     p = sub.add_parser("ablations", help="the ablation table from scripts/run_ablations.sh")
     p.add_argument("--runs", default="runs/ablations", help="(default: %(default)s)")
-    p.add_argument("--main", default="docs/evaluation/results.json", help="(default: %(default)s)")
     p.add_argument("--out", default="docs/evaluation/ablations.md", help="(default: %(default)s)")
     p.set_defaults(handler=_ablations)

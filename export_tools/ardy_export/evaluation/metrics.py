@@ -141,3 +141,66 @@ def multimodal_distance(motion_emb: np.ndarray, text_emb: np.ndarray) -> float:
     """Mean Euclidean distance between each motion embedding and its own text's."""
     diff = np.asarray(motion_emb, np.float64) - np.asarray(text_emb, np.float64)
     return float(np.linalg.norm(diff, axis=-1).mean())
+
+
+def seam_jerk(positions: Motion, fps: float, patch: int) -> dict[str, float]:
+    """Jerk at the decoder's patch seams against jerk inside a patch, for motion whose frame 0
+    starts a patch (every rollout of the runtime: its tokens start at frame 0).
+
+    ``jerk`` entry i spans frames i .. i+3. *Across*: the entries centred on a seam (frames
+    ``k*patch - 2 .. k*patch + 1``); *inside*: those within one patch (``k*patch ..
+    k*patch + 3``). Both pooled over the clips; ``ratio`` = across / inside (about 1 for
+    motion without seams, such as real clips)."""
+    if patch < 4:
+        raise ValueError("seam_jerk: a patch of fewer than 4 frames holds no third difference")
+    across, inside = [], []
+    for clip in _clips(positions):
+        per_frame = jerk(clip, fps)
+        phase = np.arange(len(per_frame)) % patch
+        across.append(per_frame[phase == patch - 2])
+        inside.append(per_frame[phase == 0])
+    a = np.concatenate(across) if across else np.zeros(0)
+    i = np.concatenate(inside) if inside else np.zeros(0)
+    across_mean = float(a.mean()) if a.size else float("nan")
+    inside_mean = float(i.mean()) if i.size else float("nan")
+    ratio = across_mean / inside_mean if inside_mean > 0 else float("nan")
+    return {"across_seams": across_mean, "inside_patches": inside_mean, "ratio": ratio}
+
+
+def contact_agreement(
+    positions: Motion, contacts: np.ndarray | Sequence[np.ndarray], fps: float
+) -> float:
+    """Fraction of (frame, foot joint) where a motion's own contact flags (> 0.5; [T, 4] per
+    clip, Foot_L, Toes_L, Foot_R, Toes_R) agree with the data's contact rule (height and 3D
+    speed under the thresholds of configs/data.yaml ``contacts``,
+    ``ardy_export.data.contacts.compute_contacts``) applied to the same motion's positions."""
+    from ardy_export.data.contacts import compute_contacts
+
+    clips = _clips(positions)
+    flags = [contacts] if isinstance(contacts, np.ndarray) and contacts.ndim == 2 else contacts
+    if len(flags) != len(clips):
+        raise ValueError("contact_agreement: one contact array per clip")
+    agree, total = 0, 0
+    for p, c in zip(clips, flags, strict=True):
+        own = np.asarray(c) > 0.5
+        rule = compute_contacts(p, fps=fps) > 0.5
+        if own.shape != rule.shape:
+            raise ValueError(f"contact_agreement: contacts {own.shape}, expected {rule.shape}")
+        agree += int((own == rule).sum())
+        total += own.size
+    return agree / total if total else float("nan")
+
+
+def balanced_indices(
+    label_ids: Sequence[int] | np.ndarray, per_label: int, seed: int = 0
+) -> np.ndarray:
+    """Indices drawing ``per_label`` items of every label (with replacement, so a label with
+    fewer items repeats some), in label order: a label-balanced sample of an unevenly
+    spread set."""
+    labels = np.asarray(label_ids)
+    rng = np.random.default_rng(seed)
+    picks = [
+        rng.choice(np.flatnonzero(labels == label), per_label, replace=True)
+        for label in np.unique(labels)
+    ]
+    return np.concatenate(picks) if picks else np.zeros(0, dtype=np.int64)

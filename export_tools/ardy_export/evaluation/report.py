@@ -29,37 +29,159 @@ def _table(header: list[str], rows: list[list[str]]) -> list[str]:
     return lines + ["| " + " | ".join(r) + " |" for r in rows]
 
 
+def _g(row: dict[str, Any] | None, *keys: str) -> Any:  # noqa: ANN401 (JSON values)
+    """``row[k1][k2]...``, None where any is missing."""
+    value: Any = row
+    for key in keys:
+        if not isinstance(value, dict) or key not in value:
+            return None
+        value = value[key]
+    return value
+
+
+def _ratio(a: float | None, b: float | None) -> float | None:
+    if a is None or b is None or not math.isfinite(a) or not math.isfinite(b) or b == 0:
+        return None
+    return a / b
+
+
+def _x(value: float | None, digits: int = 2) -> str:
+    return "n/a" if value is None else f"{value:.{digits}f}x"
+
+
+DATASET_ROW = "dataset (test split)"
+SHIPPED_ROW = "ours, 4 steps"
+UNFILTERED_ROW = "ours, 4 steps, unfiltered"
+
+
 def _text_lines(text: dict[str, Any]) -> list[str]:
     chance = text["r_precision_chance"]
+    pool = text.get("r_precision_pool", 32)
+    per_label = text.get("balanced_per_label")
+    dataset = text["rows"].get(DATASET_ROW, {})
     rows = [
         [
             name,
             _f(r["foot_skate"]),
             _f(r["r_precision_top3"]),
             _f(r["fid"]),
+            _f(r.get("fid_balanced")),
             _f(r["jerk"], 1),
             str(r["count"]),
         ]
         for name, r in text["rows"].items()
     ]
-    return [
+    extra_rows = [
+        [
+            name,
+            _f(r.get("contact_agreement")),
+            _f(_g(r, "seam_jerk", "across_seams"), 1),
+            _f(_g(r, "seam_jerk", "inside_patches"), 1),
+            _f(_g(r, "seam_jerk", "ratio"), 2),
+        ]
+        for name, r in text["rows"].items()
+    ]
+    balanced_labels = dataset.get("fid_balanced_labels")
+    lines = [
         "## Text to motion (paper Table 2)",
         "",
         f"Held-out test split: {text['labels']} labels. Generated: 6 s rollouts, the same "
         "number per label, each with another paraphrase of the label and another seed. "
         "Dataset: 6 s crops of the test clips (a clip of 2 to 6 s is one crop). "
-        f"R-precision: top 3 among 32 texts of distinct labels (chance {chance:.3f}). FID "
+        f"R-precision: top 3 among {pool} texts of distinct labels (chance {chance:.3f}). FID "
         "between evaluator embeddings of the motion and of the test crops (the dataset row: "
-        "two random halves of the crops). Skate: horizontal foot speed while a foot joint is "
-        "below its height threshold; skate and jerk are averaged per label, then over the "
-        "labels (the test clips are spread very unevenly over the labels). *Unfiltered*: "
-        "the model's raw output, without the runtime's output filter (`--smoothing 0`).",
+        "two random halves of the crops). The crops are spread very unevenly over the "
+        "labels, so *FID (balanced)* compares with a label-balanced real set instead: "
+        f"{_f(per_label, 0) if per_label is not None else 'the same number of'} crops drawn "
+        "per label, with replacement and a fixed seed, as many as the generated rows have "
+        "per label (the dataset row: such draws from two disjoint halves of the crops, "
+        + (
+            f"over the {balanced_labels} labels with at least two crops"
+            if balanced_labels is not None
+            else "over the labels with at least two crops"
+        )
+        + "). Skate: horizontal foot speed while a foot joint is below its height "
+        "threshold; skate and jerk are averaged per label, then over the labels. "
+        "*Unfiltered*: the model's raw output, without the runtime's output filter "
+        "(`--smoothing 0`).",
         "",
         *_table(
-            ["", "foot skate (m/s)", "R-precision top-3", "FID", "jerk (m/s^3)", "motions"], rows
+            [
+                "",
+                "foot skate (m/s)",
+                "R-precision top-3",
+                "FID",
+                "FID (balanced)",
+                "jerk (m/s^3)",
+                "motions",
+            ],
+            rows,
+        ),
+        "",
+        "*Contact agreement*: the fraction of (frame, foot joint) where the motion's own "
+        "foot contact flags (the model's contact channels as the CLI writes them, > 0.5; "
+        "for the dataset the features' labels) agree with the data's contact rule (height "
+        "and speed under the thresholds of `configs/data.yaml`) applied to the same "
+        "motion's joint positions; the dataset's labels are that rule, so its row is 1 "
+        f"up to rounding. *Seams*: the decoder makes {text.get('patch_frames', 4)}-frame "
+        "patches, the first starting at frame 0 of a rollout; jerk of the third "
+        "differences centred on a seam between two patches against those inside one "
+        "patch (the real crops start at any phase: their ratio is about 1).",
+        "",
+        *_table(
+            [
+                "",
+                "contact agreement",
+                "jerk across seams (m/s^3)",
+                "jerk inside patches (m/s^3)",
+                "across / inside",
+            ],
+            extra_rows,
         ),
         "",
     ]
+    paraphrase = text.get("paraphrase_rows") or {}
+    if paraphrase:
+        para_rows = []
+        for name, r in paraphrase.items():
+            own = text["rows"].get(name, {})
+            para_rows.append(
+                [
+                    name,
+                    _f(own.get("r_precision_top3")),
+                    _f(r["r_precision_top3"]),
+                    _x(_ratio(r["r_precision_top3"], own.get("r_precision_top3"))),
+                    _f(own.get("fid_balanced")),
+                    _f(r.get("fid_balanced")),
+                    _f(r["foot_skate"]),
+                ]
+            )
+        lines += [
+            "### In-bank vs held-out paraphrases",
+            "",
+            "The same rollouts (labels, seeds, steps) prompted with hand-written paraphrases "
+            "of each test label (`export_tools/configs/paraphrases.yaml`: free word order, "
+            "synonyms and style words the sentence grammar never produces) instead of the "
+            "grammar's sentences. R-precision scores both against the label bank's "
+            "embeddings of the label's grammar sentences (the same text as the in-bank "
+            "row), so it measures whether an unseen wording still yields the label's "
+            "motion.",
+            "",
+            *_table(
+                [
+                    "",
+                    "R-precision, in-bank",
+                    "R-precision, paraphrases",
+                    "paraphrase / in-bank",
+                    "FID (balanced), in-bank",
+                    "FID (balanced), paraphrases",
+                    "foot skate, paraphrases (m/s)",
+                ],
+                para_rows,
+            ),
+            "",
+        ]
+    return lines
 
 
 def _constraint_lines(con: dict[str, Any]) -> list[str]:
@@ -119,9 +241,26 @@ def _constraint_lines(con: dict[str, Any]) -> list[str]:
     ]
 
 
+def _median(summary: dict[str, Any]) -> str:
+    """The all-pairs median, marked when a non-responder enters it (a lower bound)."""
+    shown = _f(summary.get("median"), 2)
+    return f">= {shown}" if summary.get("median_at_least") else shown
+
+
 def _response_lines(resp: dict[str, Any], out: Path) -> list[str]:
     _plot_response(resp, out / "response.png")
     ours, real = resp["response_seconds"], resp["evaluator_delay_on_real_seconds"]
+    never = ours.get("never_counted_as_seconds", resp.get("after_seconds"))
+
+    def row(name: str, r: dict[str, Any]) -> list[str]:
+        return [
+            name,
+            _median(r),
+            _f(r.get("median_responders"), 2),
+            _f(r["mean"], 2),
+            f"{r['responded']}/{r['total']}",
+        ]
+
     return [
         "## Prompt response and transitions",
         "",
@@ -129,24 +268,21 @@ def _response_lines(resp: dict[str, Any], out: Path) -> list[str]:
         f"then prompt B. The evaluator reads trailing {resp['window_seconds']:g} s windows "
         "every 0.25 s; the response time is the first time B is preferred to A and stays "
         "so for 0.5 s. The same measurement on real clips of A followed by real clips of B "
-        "is the evaluator's own delay.",
+        "is the evaluator's own delay. *Median, all pairs* counts a pair that never "
+        f"responds as {_f(never, 0) if never is not None else 'the rest of the rollout'} s "
+        "(the whole rest of the rollout): its true time is longer, so a median such a "
+        "pair enters is a lower bound (shown as >=). *Median, responders* and the mean "
+        "leave those pairs out.",
         "",
         *_table(
-            ["", "median (s)", "mean (s)", "responded"],
             [
-                [
-                    "ours",
-                    _f(ours["median"], 2),
-                    _f(ours["mean"], 2),
-                    f"{ours['responded']}/{ours['total']}",
-                ],
-                [
-                    "real A -> B (evaluator delay)",
-                    _f(real["median"], 2),
-                    _f(real["mean"], 2),
-                    f"{real['responded']}/{real['total']}",
-                ],
+                "",
+                "median, all pairs (s)",
+                "median, responders (s)",
+                "mean, responders (s)",
+                "responded",
             ],
+            [row("ours", ours), row("real A -> B (evaluator delay)", real)],
         ),
         "",
         f"Jerk from 0.5 s before to 1 s after the change: {_f(resp['jerk_around_change'], 1)} "
@@ -280,9 +416,291 @@ def _bars_lines(results: dict[str, Any]) -> list[str]:
     return ["## Acceptance bars", "", *_table(["bar", "measured", ""], rows), ""]
 
 
-def write_report(results: dict[str, Any], out: Path) -> Path:
-    """Writes ``out/README.md`` (and the plots next to it); returns its path."""
+# The ARDY paper's Table 2 (Bones Rigplay, 700 h): the dataset's row and ARDY's.
+PAPER = {
+    "foot_skate": (0.264, 0.255),
+    "r_precision_top3": (0.6547, 0.7656),
+    "fid": (0.027, 0.000),
+    "end_effector_m": (0.025, None),
+    "end_effector_deg": (2.23, None),
+    "keyframe_m": (0.023, None),
+    "trajectory_m": (0.015, None),
+    "waypoint_m": (0.024, None),
+}
+
+
+def _paper_lines(results: dict[str, Any]) -> list[str]:
+    text = results.get("text", {}).get("rows", {})
+    ours, data = text.get(SHIPPED_ROW), text.get(DATASET_ROW)
+    if not ours or not data:
+        return []
+    tasks = results.get("constraints", {}).get("tasks", {})
+
+    def task(name: str, field: str) -> str:
+        shipped = _g(tasks, name, field)
+        alone = _g(tasks, name + MODEL_ONLY, field)
+        digits = 1 if field.endswith("deg") else 3
+        if alone is None or alone == shipped:
+            return _f(shipped, digits)
+        return f"{_f(shipped, digits)} ({_f(alone, digits)} model only)"
+
+    def paper(key: str, digits: int = 3) -> list[str]:
+        model, dataset = PAPER[key]
+        return [
+            _f(model, digits),
+            "-" if dataset is None else _f(dataset, digits),
+            _x(_ratio(model, dataset)),
+        ]
+
+    rows = []
+    for name, key, digits in (
+        ("foot skate (m/s)", "foot_skate", 3),
+        ("R-precision top-3", "r_precision_top3", 3),
+        ("FID", "fid", 3),
+    ):
+        rows.append(
+            [
+                name,
+                _f(ours.get(key), digits),
+                _f(data.get(key), digits),
+                _x(_ratio(ours.get(key), data.get(key))),
+                *paper(key, digits),
+            ]
+        )
+    rows.append(
+        [
+            "FID (balanced)",
+            _f(ours.get("fid_balanced")),
+            _f(data.get("fid_balanced")),
+            _x(_ratio(ours.get("fid_balanced"), data.get("fid_balanced"))),
+            "-",
+            "-",
+            "-",
+        ]
+    )
+    for name, key, task_name, field in (
+        ("end-effector position (m)", "end_effector_m", "end_effectors", "error_m"),
+        ("end-effector rotation (deg)", "end_effector_deg", "end_effectors", "rotation_error_deg"),
+        ("full-body keyframe joints (m)", "keyframe_m", "keyframes", "error_m"),
+        ("dense root trajectory (m)", "trajectory_m", "root", "error_m"),
+        ("sparse waypoints (m)", "waypoint_m", "waypoints", "error_m"),
+    ):
+        digits = 2 if key.endswith("deg") else 3
+        rows.append([name, task(task_name, field), "-", "-", *paper(key, digits)])
+    return [
+        "## Against the paper",
+        "",
+        "The paper's figures are its Table 2 (ARDY and its dataset, Bones Rigplay, 700 h; "
+        "R-precision as a fraction). Absolute values are not comparable (another dataset, "
+        "evaluator and scale), the ratios to each one's own data are the fairer "
+        "comparison. Ours: the shipped settings, 4 DDIM steps; constraint errors with the "
+        "runtime's root interpolation, model-only figures in brackets where they differ "
+        "(the paper's model has no such help). Constraint errors have no dataset figure.",
+        "",
+        *_table(
+            [
+                "metric",
+                "ours",
+                "our data",
+                "ours / data",
+                "paper ARDY",
+                "paper data",
+                "paper ratio",
+            ],
+            rows,
+        ),
+        "",
+    ]
+
+
+def _headline(results: dict[str, Any]) -> list[tuple[str, str]]:
+    """The figures the previous-package table compares, formatted."""
+    text = results.get("text", {})
+    rows = text.get("rows", {})
+    ours, data = rows.get(SHIPPED_ROW), rows.get(DATASET_ROW)
+    raw = rows.get(UNFILTERED_ROW)
+    para = (text.get("paraphrase_rows") or {}).get(SHIPPED_ROW)
+    tasks = results.get("constraints", {}).get("tasks", {})
+    resp = results.get("response", {}).get("response_seconds")
+    out = [
+        ("text foot skate (m/s)", _f(_g(ours, "foot_skate"))),
+        ("skate / dataset's", _x(_ratio(_g(ours, "foot_skate"), _g(data, "foot_skate")))),
+        ("R-precision top-3, in-bank", _f(_g(ours, "r_precision_top3"))),
+        ("R-precision top-3, paraphrases", _f(_g(para, "r_precision_top3"))),
+        ("R-precision chance", _f(text.get("r_precision_chance"))),
+        ("FID", _f(_g(ours, "fid"))),
+        ("FID (balanced)", _f(_g(ours, "fid_balanced"))),
+        ("jerk (m/s^3)", _f(_g(ours, "jerk"), 1)),
+        ("contact agreement", _f(_g(ours, "contact_agreement"))),
+        ("seam jerk ratio, unfiltered", _f(_g(raw, "seam_jerk", "ratio"), 2)),
+        ("response median, all pairs (s)", _median(resp) if resp else "n/a"),
+        ("response median, responders (s)", _f(_g(resp, "median_responders"), 2)),
+    ]
+    for task, field, name in (
+        ("waypoints", "between_frames_error_m", "waypoints, between frames (m)"),
+        ("keyframes", "error_m", "keyframes (m)"),
+        ("end_effectors", "error_m", "end effectors (m)"),
+        ("end_effectors", "rotation_error_deg", "end effectors (deg)"),
+    ):
+        digits = 1 if field.endswith("deg") else 3
+        out.append((name, _f(_g(tasks, task, field), digits)))
+        alone = _f(_g(tasks, task + MODEL_ONLY, field), digits)
+        out.append((name.replace(" (", ", model only ("), alone))
+    return out
+
+
+def _package_name(results: dict[str, Any]) -> str:
+    provenance = results.get("model", {}).get("provenance", {})
+    commit = str(provenance.get("commit", "?"))[:10]
+    return f"`{provenance.get('checkpoint', '?')}` ({commit})"
+
+
+def _previous_lines(results: dict[str, Any], previous: dict[str, Any]) -> list[str]:
+    now, before = _headline(results), dict(_headline(previous))
+    rows = [[name, value, before.get(name, "n/a")] for name, value in now]
+    same = _g(results, "model", "provenance") == _g(previous, "model", "provenance")
+    return [
+        "## Against the previous package",
+        "",
+        f"This package: {_package_name(results)}. Previous package: "
+        f"{_package_name(previous)}"
+        + (" (the same package)" if same else "")
+        + ", evaluated on the same test split with the same evaluation "
+        "(`docs/evaluation/previous.json`, the `results.json` of "
+        "`ardy-export eval run --model OLD_PACKAGE --out DIR`).",
+        "",
+        *_table(["measure", "this package", "previous package"], rows),
+        "",
+    ]
+
+
+def _reading_lines(results: dict[str, Any]) -> list[str]:
+    """How to read the figures, every figure taken from ``results``."""
+    text = results.get("text", {})
+    rows = text.get("rows", {})
+    ours, data = rows.get(SHIPPED_ROW), rows.get(DATASET_ROW)
+    raw = rows.get(UNFILTERED_ROW)
+    ten = rows.get("ours, 10 steps")
+    para = (text.get("paraphrase_rows") or {}).get(SHIPPED_ROW)
+    model = results.get("model", {})
+    arch = model.get("architecture", {})
+    denoiser, tokens = arch.get("denoiser", {}), arch.get("tokens", {})
+    hours = model.get("train_hours")
+    bullets = []
+    scale = (
+        "**Scale.** The paper's deployed denoiser has about 156 M parameters (8 layers of "
+        "width 1024), trained on 700 h of motion; ours is sized for 2 CPU cores"
+    )
+    if denoiser:
+        scale += (
+            f" ({denoiser.get('layers', '?')} layers of width {denoiser.get('width', '?')}, "
+            f"{tokens.get('patch', '?')}-frame patches, text by "
+            f"{arch.get('text_encoder') or '?'})"
+        )
+    if hours is not None:
+        scale += f" and trained on {hours:.1f} h of motion"
+    bullets.append(
+        scale + ". Absolute figures are not comparable with the paper's; its ratios to "
+        'its own data are ("Against the paper"), and the ablations compare like with '
+        "like at our scale."
+    )
+    if ours and data:
+        line = (
+            f"**Text.** R-precision {_f(ours['r_precision_top3'])} against "
+            f"{_f(data['r_precision_top3'])} for real clips (chance "
+            f"{_f(text.get('r_precision_chance'))})"
+        )
+        if para:
+            line += f", {_f(para['r_precision_top3'])} with held-out paraphrases of the same labels"
+        line += (
+            ': prompts are followed ("Prompts that must differ"), but the motion is '
+            f"less distinct than the data. FID {_f(ours['fid'])} against {_f(data['fid'])} "
+            "between halves of the test set"
+        )
+        if ours.get("fid_balanced") is not None:
+            line += (
+                f"; against a label-balanced real set {_f(ours['fid_balanced'])} (real "
+                f"halves: {_f(data.get('fid_balanced'))})"
+            )
+        bullets.append(line + ".")
+        ratio = _ratio(ours["foot_skate"], data["foot_skate"])
+        met = ratio is not None and ratio <= SKATE_RATIO_BAR
+        line = f"**Foot skate is {_x(ratio)} the test clips'** (bar: {SKATE_RATIO_BAR}x), " + (
+            "met." if met else "missed."
+        )
+        if raw:
+            line += (
+                f" Without the runtime's output filter skate is {_f(raw['foot_skate'])} m/s "
+                f"and jerk {_f(raw['jerk'], 1)} m/s^3 ({_x(_ratio(raw['jerk'], data['jerk']), 1)} "
+                f"the data's {_f(data['jerk'], 1)}; the runtime's foot lock is on in both); the "
+                "output filter brings them "
+                f"to {_f(ours['foot_skate'])} m/s and {_f(ours['jerk'], 1)} m/s^3."
+            )
+            seam = _g(raw, "seam_jerk", "ratio")
+            if seam is not None:
+                line += (
+                    f" The decoder's patches leave seams: unfiltered, jerk across a seam is "
+                    f"{_x(seam, 1)} that inside a patch ({_x(_g(ours, 'seam_jerk', 'ratio'), 1)} "
+                    f"filtered, {_x(_g(data, 'seam_jerk', 'ratio'), 2)} for real crops)."
+                )
+        if ours.get("contact_agreement") is not None:
+            line += (
+                f" The model's contact flags agree with the height and speed rule on its "
+                f"own motion {_f(100 * ours['contact_agreement'], 0)} % of the time"
+                + (
+                    f" ({_f(100 * raw['contact_agreement'], 0)} % unfiltered)"
+                    if raw and raw.get("contact_agreement") is not None
+                    else ""
+                )
+                + ", which limits what a contact-driven foot lock can fix."
+            )
+        line += (
+            " Causes, qualitatively: the tokenizer alone adds skate to real clips "
+            "(`ardy-export eval tokenizer`); much of the metric's skate is swinging feet the "
+            "model keeps below the height threshold (low foot clearance); some stance feet "
+            "slide further than the leg IK of the runtime's foot lock can reach. What would "
+            "close it: longer training of both stages, and a tokenizer with overlapping "
+            "patches or a seam loss."
+        )
+        bullets.append(line)
+    tasks = results.get("constraints", {}).get("tasks", {})
+    if "waypoints" in tasks:
+        line = (
+            "**Constraints.** The model alone follows dense root paths (error "
+            f"{_f(_g(tasks, 'root' + MODEL_ONLY, 'error_m') or _g(tasks, 'root', 'error_m'))} m)"
+            " but not isolated waypoints (model only: "
+            f"{_f(_g(tasks, 'waypoints' + MODEL_ONLY, 'between_frames_error_m'))} m between "
+            "frames) or a keyframe's root position (model only: "
+            f"{_f(_g(tasks, 'keyframes' + MODEL_ONLY, 'error_m'))} m), which the paper's "
+            "model does; the shipped package turns sparse root targets into paths, giving "
+            f"{_f(_g(tasks, 'waypoints', 'error_m'))} m at the waypoints "
+            f"({_f(_g(tasks, 'waypoints', 'between_frames_error_m'))} m between frames) and "
+            f"{_f(_g(tasks, 'keyframes', 'error_m'))} m at the keyframes."
+        )
+        bullets.append(line)
+    ablation = "**Ablations** (small models, one CPU budget each): see the table below."
+    if ours and ten:
+        ablation += (
+            f" 4 vs 10 DDIM steps on the shipped model: R-precision "
+            f"{_f(ours['r_precision_top3'])} vs {_f(ten['r_precision_top3'])}, skate "
+            f"{_f(ours['foot_skate'])} vs {_f(ten['foot_skate'])} m/s; 4 is the default, as "
+            "in the paper."
+        )
+    bullets.append(ablation)
+    return ["## Reading these numbers", "", *[f"- {b}" for b in bullets], ""]
+
+
+def write_report(
+    results: dict[str, Any], out: Path, previous: dict[str, Any] | None = None
+) -> Path:
+    """Writes ``out/README.md`` (and the plots next to it); returns its path. ``previous``
+    (default: ``out/previous.json`` when present) is an earlier package's results on the
+    same split, shown next to this one's."""
+    import json
+
     out.mkdir(parents=True, exist_ok=True)
+    if previous is None and (out / "previous.json").is_file():
+        previous = json.loads((out / "previous.json").read_text(encoding="utf-8"))
     model = results.get("model", {})
     provenance = model.get("provenance", {})
     lines = [
@@ -292,10 +710,18 @@ def write_report(results: dict[str, Any], out: Path) -> Path:
         f"`{provenance.get('checkpoint', '?')}`, commit `{provenance.get('commit', '?')}`), "
         "every motion generated by the C++ CLI `ardy-generate` from the package, as the "
         "plugin runs it. Regenerate with `ardy-export eval run` (see "
-        "`export_tools/configs/evaluation.yaml` and the model card).",
+        "`export_tools/configs/evaluation.yaml` and the model card); every figure here, "
+        "prose included, is formatted from `results.json` by "
+        "`export_tools/ardy_export/evaluation/report.py` (`ardy-export eval report` rewrites "
+        "this file from it). To keep an earlier package for comparison, evaluate it with "
+        "`ardy-export eval run --model OLD_PACKAGE --out DIR` and copy `DIR/results.json` to "
+        "`docs/evaluation/previous.json`: the report then shows it next to this one.",
         "",
     ]
     lines += _bars_lines(results)
+    lines += _paper_lines(results)
+    if previous:
+        lines += _previous_lines(results, previous)
     if "text" in results:
         lines += _text_lines(results["text"])
     if "constraints" in results:
@@ -306,11 +732,10 @@ def write_report(results: dict[str, Any], out: Path) -> Path:
         lines += _stability_lines(results["stability"], out)
     if "contrasts" in results:
         lines += _contrast_lines(results["contrasts"], out)
-    # ablations.md (ardy-export eval ablations) and notes.md (written by hand: how the
-    # numbers compare with the paper's) are kept across regenerations.
-    for extra in ("ablations.md", "notes.md"):
-        if (out / extra).is_file():
-            lines += [(out / extra).read_text(encoding="utf-8").strip(), ""]
+    lines += _reading_lines(results)
+    # ablations.md (ardy-export eval ablations) is kept across regenerations.
+    if (out / "ablations.md").is_file():
+        lines += [(out / "ablations.md").read_text(encoding="utf-8").strip(), ""]
     path = out / "README.md"
     path.write_text("\n".join(lines), encoding="utf-8")
     return path
@@ -464,9 +889,10 @@ def _ablation_row(
     ]
 
 
-def write_ablation_table(runs: Path, main: Path | None, out: Path) -> Path:
-    """``ablations.md`` from ``runs/eval_<name>/results.json`` (and the main evaluation's 4
-    vs 10 DDIM steps rows); ``write_report`` appends it to the report."""
+def write_ablation_table(runs: Path, out: Path) -> Path:
+    """``ablations.md`` from ``runs/eval_<name>/results.json``; ``write_report`` appends it
+    to the report (the shipped model's 4 vs 10 DDIM steps are rows of its text section,
+    from ``results.json``, so they never go stale here)."""
     import json
 
     header = [
@@ -495,24 +921,11 @@ def write_ablation_table(runs: Path, main: Path | None, out: Path) -> Path:
         "`--root`); a pair differs only in what it ablates. Evaluated like the "
         "main model with fewer rollouts (4 per label, 1 crop per label), 4 DDIM steps, "
         "constraints without the runtime's root interpolation (the model's own following). "
-        "Rows missing here were not run.",
+        "Rows missing here were not run. These figures are those of the runs' own "
+        "`results.json` (their split and evaluator at the time), not of this report's.",
         "",
         *_table(header, rows),
         "",
     ]
-    if main is not None and main.is_file():
-        results = json.loads(main.read_text(encoding="utf-8"))
-        step_rows = [
-            _ablation_row(f"shipped model, {steps} DDIM steps", results, steps, text_only=True)
-            for steps in (4, 10)
-            if f"ours, {steps} steps" in results.get("text", {}).get("rows", {})
-        ]
-        lines += [
-            "4 vs 10 diffusion steps, on the shipped model (text to motion only; the "
-            "constraint tasks ran at 4 steps):",
-            "",
-            *_table(header, step_rows),
-            "",
-        ]
     out.write_text("\n".join(lines), encoding="utf-8")
     return out

@@ -2,11 +2,15 @@
 paper's terms on the held-out test groups; writes ``results.json`` for ``report.py``.
 
 Sections (each a key of the result):
-- ``text``: text-to-motion (Table 2): foot skate, R-precision top-3, FID, jerk; the
-  dataset's own row first, then one row per DDIM step count.
+- ``text``: text-to-motion (Table 2): foot skate, R-precision top-3, FID (against all test
+  crops and against a label-balanced draw of them), jerk, jerk at the decoder's patch seams,
+  and how often the motion's contact flags agree with the data's contact rule; the
+  dataset's own row first, then one row per DDIM step count; the same rows prompted with
+  held-out paraphrases (configs/paraphrases.yaml) in ``paraphrase_rows``.
 - ``constraints``: root path, sparse waypoints, full-body keyframes, end effectors
   (Table 3), with the label's prompt.
-- ``response``: prompt A, then prompt B: seconds until the evaluator prefers B, and the
+- ``response``: prompt A, then prompt B: seconds until the evaluator prefers B (a pair
+  that never responds counts as the whole rest of the rollout in ``median``), and the
   jerk around the change; the same measurement on real A -> B clips is the evaluator's
   own delay.
 - ``stability``: one long rollout of changing prompts.
@@ -37,6 +41,8 @@ from ardy_export.evaluation.tasks import (
     Group,
     canonical_crop,
     constraint_cases,
+    load_paraphrases,
+    paraphrase_cases,
     test_crops,
     text_cases,
 )
@@ -83,9 +89,16 @@ class Context:
         return self.bank[group][sentence]
 
     def motion_row(
-        self, positions: list[np.ndarray], groups: list[Group], sentences: list[int]
-    ) -> dict[str, float]:
-        """Skate, R-precision, FID (against the real test crops) and jerk of motions."""
+        self,
+        positions: list[np.ndarray],
+        groups: list[Group],
+        sentences: list[int],
+        contacts: list[np.ndarray] | None = None,
+    ) -> dict[str, Any]:
+        """Skate, R-precision, FID (against all real test crops and against a label-balanced
+        draw of them), jerk, seam jerk and (with the motions' own contact flags) contact
+        agreement of motions. R-precision scores motion i against the label bank's
+        embedding of sentence ``sentences[i]`` of its label ``groups[i]``."""
         emb = self.evaluator.embed_motion(positions)
         text = self.evaluator.embed_text(
             np.stack([self.text_embedding(g, s) for g, s in zip(groups, sentences, strict=True)])
@@ -96,16 +109,46 @@ class Context:
             by_label.setdefault(g, []).append(p)
         # Skate and jerk per label, then averaged over the labels: the test clips are very
         # unevenly spread (74 clips of one label, 1 of another), the generated ones evenly.
-        return {
+        row: dict[str, Any] = {
             "foot_skate": float(
                 np.nanmean([metrics.foot_skate(v, self.feet, self.fps) for v in by_label.values()])
             ),
-            "r_precision_top3": metrics.r_precision(emb, text, 3, 32, seed=0, label_ids=ids),
+            "r_precision_top3": metrics.r_precision(emb, text, 3, self.pool, seed=0, label_ids=ids),
             "fid": metrics.fid(self.real_embeddings, emb),
+            "fid_balanced": metrics.fid(self.real_embeddings[self.balanced_real], emb),
             "jerk": float(np.mean([metrics.mean_jerk(v, self.fps) for v in by_label.values()])),
+            "seam_jerk": metrics.seam_jerk(positions, self.fps, L.PATCH),
             "count": len(positions),
             "labels": len(by_label),
         }
+        if contacts is not None:
+            row["contact_agreement"] = metrics.contact_agreement(positions, contacts, self.fps)
+        return row
+
+    @cached_property
+    def pool(self) -> int:
+        """R-precision pool: ``text.r_precision_pool`` texts of distinct labels (32, the
+        usual figure), fewer when the test split (or the part of it with real crops long
+        enough) has fewer labels."""
+        wanted = int(self.config["text"].get("r_precision_pool", 32))
+        return min(wanted, len(self.groups), len(np.unique(self.real_label_ids)))
+
+    @property
+    def per_label(self) -> int:
+        """Real crops drawn per label for the balanced FID: as many as the generated rows
+        have per label."""
+        text = self.config["text"]
+        return int(text.get("balanced_per_label") or text["samples_per_label"])
+
+    @cached_property
+    def real_label_ids(self) -> np.ndarray:
+        return np.array([self.groups.index(g) for g, _ in self.real_crops])
+
+    @cached_property
+    def balanced_real(self) -> np.ndarray:
+        """Indices into ``real_crops``: ``per_label`` crops of every label that has one,
+        drawn with replacement (fixed seed)."""
+        return metrics.balanced_indices(self.real_label_ids, self.per_label, seed=0)
 
     @cached_property
     def real_crops(self) -> list[tuple[Group, np.ndarray]]:
@@ -117,17 +160,42 @@ class Context:
         return self.evaluator.embed_motion([positions_from_features(c) for _, c in self.real_crops])
 
 
-def dataset_row(ctx: Context) -> dict[str, float]:
-    """The test crops measured like generated motion; FID between two random halves."""
+def balanced_halves(
+    label_ids: np.ndarray, per_label: int, seed: int = 0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Two label-balanced samples of disjoint halves of a set: each label's items split in
+    two, ``per_label`` drawn (with replacement) from each half. Labels with a single item
+    cannot be in both halves and are left out."""
+    rng = np.random.default_rng(seed)
+    first, second = np.zeros(len(label_ids), bool), np.zeros(len(label_ids), bool)
+    for label in np.unique(label_ids):
+        members = rng.permutation(np.flatnonzero(label_ids == label))
+        if len(members) >= 2:
+            half = len(members) // 2
+            first[members[:half]] = True
+            second[members[half:]] = True
+    ids_a, ids_b = np.flatnonzero(first), np.flatnonzero(second)
+    pick_a = metrics.balanced_indices(label_ids[ids_a], per_label, seed + 1)
+    pick_b = metrics.balanced_indices(label_ids[ids_b], per_label, seed + 2)
+    return ids_a[pick_a], ids_b[pick_b]
+
+
+def dataset_row(ctx: Context) -> dict[str, Any]:
+    """The test crops measured like generated motion; FID between two random halves, and
+    between two label-balanced samples of two halves."""
     embeddings = ctx.real_embeddings
     crops = ctx.real_crops
     rng = np.random.default_rng(0)
     sentences = [int(rng.integers(len(ctx.bank[g]))) for g, _ in crops]
     positions = [positions_from_features(c) for _, c in crops]
-    row = ctx.motion_row(positions, [g for g, _ in crops], sentences)
+    contacts = [c[:, L.CONTACT_SLICE] for _, c in crops]
+    row = ctx.motion_row(positions, [g for g, _ in crops], sentences, contacts)
     order = rng.permutation(len(crops))
     half = len(order) // 2
     row["fid"] = metrics.fid(embeddings[order[:half]], embeddings[order[half:]])
+    a, b = balanced_halves(ctx.real_label_ids, ctx.per_label, seed=0)
+    row["fid_balanced"] = metrics.fid(embeddings[a], embeddings[b])
+    row["fid_balanced_labels"] = len(np.unique(ctx.real_label_ids[a]))
     return row
 
 
@@ -137,18 +205,49 @@ def text_section(ctx: Context) -> dict[str, Any]:
     cases = text_cases(ctx.groups, int(cfg["samples_per_label"]), ctx.frames / ctx.fps, 16)
     variants = [(int(s), None) for s in cfg["steps"]]
     variants += [(int(s), 0.0) for s in cfg.get("unfiltered_steps", [])]
+    paraphrases = cfg.get("paraphrases")
+    held_out = (
+        paraphrase_cases(
+            ctx.groups,
+            load_paraphrases(paraphrases),
+            int(cfg.get("paraphrase_samples") or cfg["samples_per_label"]),
+            ctx.frames / ctx.fps,
+            16,
+        )
+        if paraphrases
+        else []
+    )
+    paraphrase_rows: dict[str, Any] = {}
     for steps, smoothing in variants:
         name = f"ours, {steps} steps" + (", unfiltered" if smoothing is not None else "")
         extra = [] if smoothing is None else ["--smoothing", f"{smoothing:g}"]
-        jobs = [replace(c.job, steps=steps, extra_args=extra) for c in cases]
-        motions = ctx.generate(f"text only ({name})", jobs)
-        row = ctx.motion_row(
-            [m.positions for m in motions], [c.group for c in cases], [c.sentence for c in cases]
-        )
-        row["cli_seconds_per_rollout"] = float(np.mean([m.wall_seconds for m in motions]))
-        rows[name] = row
-    chance = metrics.r_precision_chance(3, 32)
-    return {"rows": rows, "r_precision_chance": chance, "labels": len(ctx.groups)}
+        for kind, kind_cases, out in (
+            ("", cases, rows),
+            (", held-out paraphrases", held_out, paraphrase_rows),
+        ):
+            if not kind_cases:
+                continue
+            jobs = [replace(c.job, steps=steps, extra_args=extra) for c in kind_cases]
+            motions = ctx.generate(f"text only ({name}{kind})", jobs)
+            row = ctx.motion_row(
+                [m.positions for m in motions],
+                [c.group for c in kind_cases],
+                [c.sentence for c in kind_cases],
+                [m.contacts for m in motions],
+            )
+            row["cli_seconds_per_rollout"] = float(np.mean([m.wall_seconds for m in motions]))
+            out[name] = row
+    chance = metrics.r_precision_chance(3, ctx.pool)
+    return {
+        "rows": rows,
+        "r_precision_pool": ctx.pool,
+        "paraphrase_rows": paraphrase_rows,
+        "r_precision_chance": chance,
+        "labels": len(ctx.groups),
+        "real_labels": len(np.unique(ctx.real_label_ids)),
+        "balanced_per_label": ctx.per_label,
+        "patch_frames": L.PATCH,
+    }
 
 
 def _midpoint_error(root_xz: np.ndarray, target_xz: np.ndarray, frames: list[int]) -> float:
@@ -303,8 +402,9 @@ def response_section(ctx: Context) -> dict[str, Any]:
             real.append(_response_time(ends_r, margin_r, change, hold, ctx.fps))
     return {
         "pairs": len(pairs),
-        "response_seconds": _summary(ours),
-        "evaluator_delay_on_real_seconds": _summary(real),
+        "after_seconds": after,
+        "response_seconds": _summary(ours, after),
+        "evaluator_delay_on_real_seconds": _summary(real, after),
         "jerk_around_change": float(np.mean(jerk_near)),
         "jerk_overall": float(np.mean(jerk_all)),
         "window_seconds": window / ctx.fps,
@@ -327,14 +427,25 @@ def _heading(positions: np.ndarray) -> np.ndarray:
     return np.unwrap(heading_from_positions(positions))
 
 
-def _summary(values: list[float]) -> dict[str, float]:
+def _summary(values: list[float], never: float) -> dict[str, Any]:
+    """Response times (NaN: never responded). ``median``: over all pairs, a pair that never
+    responded counted as ``never`` seconds (the whole rest of the rollout), so the true
+    median is at least this (``median_at_least`` when it is a non-responder's value);
+    ``median_responders`` and ``mean``: over the pairs that responded."""
     v = np.asarray(values, np.float64)
     ok = v[np.isfinite(v)]
+    counted = np.where(np.isfinite(v), v, never)
+    median = float(np.median(counted)) if v.size else float("nan")
+    # A lower bound when a non-responder enters it (their true times lie beyond ``never``).
+    unbounded = float(np.median(np.where(np.isfinite(v), v, np.inf))) if v.size else median
     return {
-        "median": float(np.median(ok)) if ok.size else float("nan"),
+        "median": median,
+        "median_at_least": bool(unbounded != median),
+        "median_responders": float(np.median(ok)) if ok.size else float("nan"),
         "mean": float(ok.mean()) if ok.size else float("nan"),
         "responded": int(ok.size),
         "total": int(v.size),
+        "never_counted_as_seconds": never,
     }
 
 
@@ -452,12 +563,30 @@ def evaluate(
     path = out_dir / "results.json"
     results: dict[str, Any] = json.loads(path.read_text()) if path.is_file() else {}
     model_json = json.loads((Path(config["model"]) / "model.json").read_text())
-    results["model"] = {"path": config["model"], "provenance": model_json.get("provenance", {})}
+    results["model"] = {
+        "path": config["model"],
+        "provenance": model_json.get("provenance", {}),
+        "architecture": {
+            **{key: model_json.get(key, {}) for key in ("denoiser", "tokens", "sampling")},
+            "text_encoder": model_json.get("text", {}).get("encoder"),
+        },
+        "train_hours": _train_hours(Path(config["data"])),
+    }
     for name in sections or SECTIONS:
         results[name] = _rounded(SECTIONS[name](ctx))
         path.write_text(json.dumps(results, separators=(",", ":")) + "\n", encoding="utf-8")
         log(f"{name}: done -> {path}")
     return results
+
+
+def _train_hours(data: Path) -> float | None:
+    """Hours of motion in the training split of the processed data (None if unknown)."""
+    index = data / "index.json"
+    if not index.is_file():
+        return None
+    doc = json.loads(index.read_text(encoding="utf-8"))
+    frames = sum(int(c.get("frames", 0)) for c in doc["clips"] if c.get("split") == "train")
+    return frames / float(doc.get("fps", L.FPS)) / 3600.0
 
 
 def _rounded(value: Any) -> Any:  # noqa: ANN401 (JSON values)

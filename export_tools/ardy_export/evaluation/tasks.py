@@ -7,6 +7,7 @@ put where generated motion starts: root on the ground origin, facing +Z (heading
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -74,6 +75,46 @@ def text_cases(groups: list[Group], samples: int, seconds: float, sentences: int
             prompt = _prompt(group, k)
             job = Job({"prompts": [{"time": 0.0, "text": prompt}]}, seconds, seed=1000 * g + s)
             cases.append(Case("text", group, prompt, k, job))
+    return cases
+
+
+def load_paraphrases(path: str | Path) -> dict[Group, list[str]]:
+    """The held-out paraphrases (configs/paraphrases.yaml): ``dataset/content/style`` ->
+    hand-written sentences the sentence grammar does not produce."""
+    import yaml
+
+    raw = yaml.safe_load(Path(path).read_text(encoding="utf-8")) or {}
+    out: dict[Group, list[str]] = {}
+    for key, sentences in raw.items():
+        parts = tuple(str(key).split("/"))
+        if len(parts) != 3 or not sentences or not all(isinstance(s, str) for s in sentences):
+            raise ValueError(f"{path}: {key!r} must be dataset/content/style: [sentences]")
+        out[(parts[0], parts[1], parts[2])] = [s.strip() for s in sentences]
+    return out
+
+
+def paraphrase_cases(
+    groups: list[Group],
+    paraphrases: dict[Group, list[str]],
+    samples: int,
+    seconds: float,
+    sentences: int,
+) -> list[Case]:
+    """Text only with held-out paraphrases: ``samples`` rollouts per label, rollout s prompted
+    with paraphrase ``s % len`` and seeded as ``text_cases`` seeds it. ``Case.sentence`` is
+    the bank sentence ``s % sentences`` (the one the in-bank rollout s is scored against):
+    R-precision compares the motion with the label bank's embedding of the label, never
+    with an embedding of the paraphrase."""
+    missing = [g for g in groups if not paraphrases.get(g)]
+    if missing:
+        raise ValueError(f"no held-out paraphrases for the test labels {missing}")
+    cases = []
+    for g, group in enumerate(groups):
+        own = paraphrases[group]
+        for s in range(samples):
+            prompt = own[s % len(own)]
+            job = Job({"prompts": [{"time": 0.0, "text": prompt}]}, seconds, seed=1000 * g + s)
+            cases.append(Case("paraphrase", group, prompt, s % sentences, job))
     return cases
 
 
