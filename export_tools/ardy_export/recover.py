@@ -1,11 +1,13 @@
 """A denoiser checkpoint rebuilt from a model package's own graphs.
 
-A package carries its denoiser's weights in its ONNX graphs. ``recover_checkpoint`` reads
-them back into a ``Denoiser`` and writes a slim checkpoint that ``ardy-export export`` takes,
-so a package whose checkpoint is gone can be exported again (to a newer package format, say)
-or trained further. Everything that is not a denoiser weight (configs, tokenizer, statistics,
-schedule, skeleton) comes from a base checkpoint of the same architecture, such as the one
-the package was fine-tuned from; the rebuilt model must reproduce the package's graphs
+A package carries its denoiser's and its tokenizer decoder's weights in its ONNX graphs.
+``recover_checkpoint`` reads them back into a ``Denoiser`` and a ``BodyTokenizer`` and
+writes a slim checkpoint that ``ardy-export export`` takes, so a package whose checkpoint is
+gone can be exported again (to a newer package format, say) or trained further. Everything
+else (configs, the tokenizer's encoder, statistics, schedule, skeleton) comes from a base
+checkpoint of the same architecture, such as the one the package was fine-tuned from (a
+package whose decoder was fine-tuned with the encoder frozen, stage 4, recovers from the
+same base as the one before it); the rebuilt model must reproduce the package's graphs
 (denoiser, decoder, encoder) within ``PARITY_ATOL`` or nothing is written.
 
 Weights named after their parameter are taken by name. The exporter stores the weight of a
@@ -30,6 +32,7 @@ from onnx import numpy_helper
 
 from ardy_export.models.denoiser import DenoiserConfig
 from ardy_export.models.graphs import DENOISER_MODULE_INPUTS, example_denoiser_inputs
+from ardy_export.models.tokenizer import TOKENIZER_PARTS
 from ardy_export.package import run_denoiser_graphs
 from ardy_export.sampling.sampler import ModelBundle
 from ardy_export.training.common import save_checkpoint
@@ -43,12 +46,13 @@ class RecoverError(RuntimeError):
     """The package's graphs do not give every weight, or the rebuilt model differs."""
 
 
-def graph_weights(path: Path) -> dict[str, np.ndarray]:
-    """Parameter name -> value for every weight of one exported graph that can be named."""
+def graph_weights(path: Path, module: str = "denoiser") -> dict[str, np.ndarray]:
+    """Parameter name -> value for every weight of one exported graph that can be named;
+    ``module``: the attribute the graph wrapper (models.graphs) holds the model as."""
     model = onnx.load(str(path))
     initializers = {i.name: numpy_helper.to_array(i) for i in model.graph.initializer}
-    # The graph wrappers (models.graphs) hold the denoiser as ``denoiser``.
-    initializers = {name.removeprefix("denoiser."): value for name, value in initializers.items()}
+    prefix = module + "."
+    initializers = {name.removeprefix(prefix): value for name, value in initializers.items()}
     weights = {name: value for name, value in initializers.items() if "." in name}
     consumers: dict[str, list[onnx.NodeProto]] = {}
     for node in model.graph.node:
@@ -58,9 +62,7 @@ def graph_weights(path: Path) -> dict[str, np.ndarray]:
         if node.op_type != "MatMul" or node.input[1] not in initializers:
             continue
         for add in consumers.get(node.output[0], []):
-            bias = next(
-                (n.removeprefix("denoiser.") for n in add.input if n.endswith(".bias")), None
-            )
+            bias = next((n.removeprefix(prefix) for n in add.input if n.endswith(".bias")), None)
             if add.op_type == "Add" and bias is not None and bias in initializers:
                 weights[bias[: -len(".bias")] + ".weight"] = initializers[node.input[1]].T
     return weights
@@ -136,9 +138,33 @@ def _denoiser_reference(package: Path, inputs: Sequence[torch.Tensor]) -> np.nda
     return _run(package / "denoiser.onnx", feeds)  # format version 1: one graph
 
 
+def _with_package_decoder(
+    package: Path, tokenizer_state: dict[str, torch.Tensor]
+) -> dict[str, torch.Tensor]:
+    """The tokenizer's state with every decoder parameter taken from decoder.onnx."""
+    found = graph_weights(package / "decoder.onnx", module="tokenizer")
+    decoder = tuple(module + "." for module in TOKENIZER_PARTS["decoder"])
+    names = [name for name in tokenizer_state if name.startswith(decoder)]
+    missing = [name for name in names if name not in found]
+    if missing:
+        raise RecoverError(
+            f"{package}: decoder.onnx holds no weight for {len(missing)} decoder parameters "
+            f"(first: {missing[0]}); is the base checkpoint of the same architecture?"
+        )
+    state = dict(tokenizer_state)
+    for name in names:
+        if tuple(found[name].shape) != tuple(state[name].shape):
+            raise RecoverError(
+                f"{package}: tokenizer {name} is {tuple(found[name].shape)} in decoder.onnx, "
+                f"{tuple(state[name].shape)} in the base checkpoint's architecture"
+            )
+        state[name] = torch.from_numpy(np.array(found[name]))
+    return state
+
+
 def recover_checkpoint(package: Path, base_checkpoint: Path, out: Path) -> dict[str, float]:
-    """Writes ``out`` (slim checkpoint: base + the package's denoiser weights and sampling
-    defaults); returns the largest difference to each of the package's graphs."""
+    """Writes ``out`` (slim checkpoint: base + the package's denoiser weights, decoder weights
+    and sampling defaults); returns the largest difference to each of the package's graphs."""
     description = json.loads((package / "model.json").read_text(encoding="utf-8"))
     base = torch.load(base_checkpoint, map_location="cpu", weights_only=False)
     bundle = ModelBundle.from_state(base)
@@ -177,6 +203,8 @@ def recover_checkpoint(package: Path, base_checkpoint: Path, out: Path) -> dict[
             )
     weights = {name: torch.from_numpy(np.array(found[name])) for name in state}
     bundle.denoiser.load_state_dict(weights)
+    tokenizer_state = _with_package_decoder(package, bundle.tokenizer.state_dict())
+    bundle.tokenizer.load_state_dict(tokenizer_state)
     errors = {"denoiser": 0.0, "decoder": 0.0, "encoder": 0.0}
     with torch.no_grad():
         for seed, (history, future) in enumerate(CHECK_LENGTHS):
@@ -215,6 +243,7 @@ def recover_checkpoint(package: Path, base_checkpoint: Path, out: Path) -> dict[
         key: value for key, value in base.items() if key not in ("model", "optimizer", "rng")
     }
     recovered["ema"] = weights
+    recovered["tokenizer"] = tokenizer_state
     recovered["sampling_defaults"] = defaults
     recovered["recovered_from"] = {
         "package": str(package),

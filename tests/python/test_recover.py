@@ -54,3 +54,36 @@ def test_a_base_of_another_architecture_is_refused(tmp_path: Path) -> None:
     with pytest.raises(RecoverError, match="same architecture"):
         recover_checkpoint(PACKAGE, other, out)
     assert not out.exists()
+
+
+def test_the_decoder_weights_come_from_the_package_not_the_base(tmp_path: Path) -> None:
+    """A package whose decoder was fine-tuned after the base (stage 4) recovers from the same
+    base: decoder.onnx gives the decoder half of the tokenizer, the base only the encoder."""
+    import shutil
+
+    import onnx
+    from onnx import numpy_helper
+
+    package = tmp_path / "package"
+    shutil.copytree(PACKAGE, package)
+    model = onnx.load(str(package / "decoder.onnx"))
+    shift = {"tokenizer.dec_out.bias": 0.01, "tokenizer.decoder.norm.weight": -0.02}
+    for initializer in model.graph.initializer:
+        if initializer.name in shift:
+            moved = numpy_helper.to_array(initializer) + np.float32(shift[initializer.name])
+            initializer.CopyFrom(numpy_helper.from_array(moved, initializer.name))
+    onnx.save(model, str(package / "decoder.onnx"))
+    out = tmp_path / "recovered.pt"
+    errors = recover_checkpoint(package, BASE, out)
+    assert errors["decoder"] <= 1e-4
+    recovered = ModelBundle.from_checkpoint(out).tokenizer.state_dict()
+    before = recover_checkpoint(PACKAGE, BASE, tmp_path / "unchanged.pt")
+    assert max(before.values()) <= 1e-4
+    reference = ModelBundle.from_checkpoint(tmp_path / "unchanged.pt").tokenizer.state_dict()
+    for name, delta in shift.items():
+        key = name.removeprefix("tokenizer.")
+        assert torch.allclose(
+            recovered[key] - reference[key], torch.full_like(recovered[key], delta)
+        )
+    changed = [k for k in reference if not torch.equal(recovered[k], reference[k])]
+    assert sorted(changed) == sorted(k.removeprefix("tokenizer.") for k in shift)

@@ -8,6 +8,7 @@ CLI test trains on synthetic clips by design and needs no data.
 
 from __future__ import annotations
 
+import json
 import subprocess
 from pathlib import Path
 from typing import Any
@@ -290,3 +291,134 @@ def test_cli_train_checkpoints_and_resumes(tmp_path: Path) -> None:
     name = next(iter(small["ema"]))
     start = small["ema"][name]
     assert torch.allclose(tuned["model"][name], start, atol=0.05)
+
+
+def test_motion_difference_error_sees_a_seam_that_positions_hide() -> None:
+    """Velocity and acceleration errors: zero for the real motion, zero velocity error for a
+    constant offset, zero acceleration error for a steady drift, and a jump of 1 cm between
+    two frames (a patch seam) costs its velocity (0.01 m x 20 fps) and acceleration."""
+    from ardy_export.models import layout as L
+    from ardy_export.training.losses import motion_difference_error
+
+    frames, joints = 12, L.NUM_JOINTS - 1
+    rng = np.random.default_rng(0)
+    body = torch.from_numpy(rng.normal(size=(1, frames, L.BODY_DIM)).astype(np.float32))
+    root = torch.zeros(1, frames, 3)
+    positions = slice(L.JOINT_POS_SLICE.start - L.ROOT_DIM, L.JOINT_POS_SLICE.stop - L.ROOT_DIM)
+
+    def moved(offset: torch.Tensor) -> torch.Tensor:
+        out = body.clone()
+        out[..., positions] += offset.reshape(1, frames, 1).expand(1, frames, 3 * joints)
+        return out
+
+    def error(pred: torch.Tensor, order: int) -> float:
+        return float(motion_difference_error(root, pred, body, L.FPS, order))
+
+    assert error(body, 1) == 0.0 and error(body, 2) == 0.0
+    assert error(moved(torch.full((frames,), 0.05)), 1) < 1e-4
+    drift = moved(torch.arange(frames, dtype=torch.float32) * 0.01)
+    assert error(drift, 1) > 0.1 and error(drift, 2) < 1e-4
+    seam = moved((torch.arange(frames) >= 6).float() * 0.01 / 3**0.5)
+    assert error(seam, 1) == pytest.approx(0.01 * L.FPS / (frames - 1), rel=1e-3)
+    assert error(seam, 2) == pytest.approx(2 * 0.01 * L.FPS**2 / (frames - 2), rel=1e-3)
+
+
+def test_decoder_fine_tune_keeps_the_encoder_and_attaches_to_the_denoiser(
+    tmp_path: Path,
+) -> None:
+    """train.freeze: [encoder] with init_from a denoiser checkpoint moves only the decoder
+    (with the velocity, acceleration and ground-truth skate terms), resumes, and
+    attach-tokenizer puts it
+    into a copy of the denoiser checkpoint; a tokenizer with another encoder is refused."""
+    synthetic = {"source": "synthetic", "synthetic_clips": 6}
+    tiny = {"latent_dim": 4, "fsq_levels": 8, "width": 16, "layers": 1, "heads": 2, "ff_mult": 2}
+    steps = {"batch_size": 4, "log_every": 2, "warmup_steps": 1, "crop_tokens": [2, 4]}
+    tok_cfg = {
+        "run_dir": str(tmp_path / "tok"),
+        "seed": 1,
+        "device": "cpu",
+        "data": synthetic,
+        "model": tiny,
+        "train": {**steps, "steps": 4, "checkpoint_every": 4},
+    }
+    den_cfg = {
+        "run_dir": str(tmp_path / "den"),
+        "seed": 1,
+        "device": "cpu",
+        "data": synthetic,
+        "tokenizer_checkpoint": str(tmp_path / "tok" / "final.pt"),
+        "text": {"mode": "hashed"},
+        "model": {**tiny, "max_history_tokens": 4, "max_future_tokens": 2},
+        "loss": {"skate": 0.1},  # contact-aware term on the decoded prediction
+        "train": {
+            "steps": 2,
+            "batch_size": 4,
+            "log_every": 2,
+            "checkpoint_every": 2,
+            "yaw_variants": 1,
+        },
+    }
+    tune_cfg = {
+        "run_dir": str(tmp_path / "tune"),
+        "seed": 2,
+        "device": "cpu",
+        "data": synthetic,
+        "init_from": str(tmp_path / "den" / "final.pt"),
+        "loss": {
+            "recon": 1.0,
+            "skate": 0.5,
+            "skate_contacts": "ground_truth",
+            "velocity": 0.1,
+            "acceleration": 0.01,
+            "fk": 0.5,
+        },
+        "train": {**steps, "steps": 4, "checkpoint_every": 2, "freeze": ["encoder"], "lr": 1e-2},
+    }
+    for name, cfg in (("tok", tok_cfg), ("den", den_cfg), ("tune", tune_cfg)):
+        (tmp_path / f"{name}.yaml").write_text(yaml.safe_dump(cfg))
+    what = {"tok": "tokenizer", "den": "denoiser", "tune": "tokenizer"}
+    for name in ("tok", "den"):
+        assert (
+            cli_main(["train", what[name], "--config", str(tmp_path / f"{name}.yaml"), "--quiet"])
+            == 0
+        )
+    tune = str(tmp_path / "tune.yaml")
+    assert cli_main(["train", "tokenizer", "--config", tune, "--steps", "2", "--quiet"]) == 0
+    assert cli_main(["train", "tokenizer", "--config", tune, "--resume", "--quiet"]) == 0
+    tuned = torch.load(tmp_path / "tune" / "final.pt", weights_only=False)
+    assert tuned["step"] == 4 and tuned["ema_updates"] == 4
+    rows = [
+        json.loads(line) for line in (tmp_path / "tune" / "metrics.jsonl").read_text().splitlines()
+    ]
+    assert [r["step"] for r in rows] == [2, 4]
+    assert all(r["velocity"] > 0 and r["acceleration"] > 0 for r in rows)
+    den_rows = (tmp_path / "den" / "metrics.jsonl").read_text().splitlines()
+    assert all(json.loads(line)["skate"] >= 0 for line in den_rows) and den_rows
+    den = torch.load(tmp_path / "den" / "final.pt", weights_only=False)
+    moved = {k for k, v in tuned["model"].items() if not torch.equal(v, den["tokenizer"][k])}
+    assert moved and all(k.startswith(("dec_in.", "decoder.", "dec_out.")) for k in moved)
+
+    out = tmp_path / "attached.pt"
+    args = ["attach-tokenizer", "--denoiser", str(tmp_path / "den" / "final.pt")]
+    assert (
+        cli_main([*args, "--tokenizer", str(tmp_path / "tune" / "final.pt"), "--out", str(out)])
+        == 0
+    )
+    attached = torch.load(out, weights_only=False)
+    for key, value in tuned["ema"].items():
+        assert torch.equal(attached["tokenizer"][key], value)
+    assert attached["ema"].keys() == den["ema"].keys()
+    # the same fine-tune with the encoder free changes the codes: refused
+    free_cfg = {
+        **tune_cfg,
+        "run_dir": str(tmp_path / "free"),
+        "train": {**tune_cfg["train"], "freeze": []},
+    }
+    (tmp_path / "free.yaml").write_text(yaml.safe_dump(free_cfg))
+    assert cli_main(["train", "tokenizer", "--config", str(tmp_path / "free.yaml"), "--quiet"]) == 0
+    refused = tmp_path / "refused.pt"
+    assert (
+        cli_main([*args, "--tokenizer", str(tmp_path / "free" / "final.pt"), "--out", str(refused)])
+        == 1
+    )
+    assert not refused.exists()

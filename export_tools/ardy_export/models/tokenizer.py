@@ -112,6 +112,14 @@ def causal_bias(tokens: int, batch: int, device: torch.device) -> Tensor:
     return attention_bias(allowed)
 
 
+# The tokenizer's two halves, by module name: the encoder (encoder.onnx; its codes are what a
+# denoiser learns) and the decoder (decoder.onnx).
+TOKENIZER_PARTS = {
+    "encoder": ("enc_in", "encoder", "enc_out"),
+    "decoder": ("dec_in", "decoder", "dec_out"),
+}
+
+
 class BodyTokenizer(nn.Module):
     def __init__(self, config: TokenizerConfig) -> None:
         super().__init__()

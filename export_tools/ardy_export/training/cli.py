@@ -6,6 +6,7 @@ import argparse
 import json
 import math
 import os
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -92,6 +93,18 @@ def _slim(args: argparse.Namespace) -> int:
     return 0
 
 
+def _attach_tokenizer(args: argparse.Namespace) -> int:
+    from ardy_export.training.tokenizer_train import attach_tokenizer
+
+    try:
+        out = attach_tokenizer(Path(args.denoiser), Path(args.tokenizer), Path(args.out))
+    except ValueError as error:
+        print(f"ardy-export attach-tokenizer: {error}", file=sys.stderr)
+        return 1
+    print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB)")
+    return 0
+
+
 def add_training_commands(commands: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     train = commands.add_parser(
         "train",
@@ -123,6 +136,18 @@ def add_training_commands(commands: argparse._SubParsersAction) -> None:  # type
     slim.add_argument("--checkpoint", required=True, help="denoiser checkpoint (.pt)")
     slim.add_argument("--out", required=True, help="slim checkpoint to write")
     slim.set_defaults(handler=_slim)
+
+    attach = commands.add_parser(
+        "attach-tokenizer",
+        help="put a fine-tuned tokenizer (same encoder) into a denoiser checkpoint",
+        description="Writes a copy of a denoiser checkpoint whose tokenizer is the given one "
+        "(its EMA weights). The encoder must be the checkpoint's own, weight for weight (train "
+        "it with train.freeze: [encoder]), so the latents the denoiser learned mean the same.",
+    )
+    attach.add_argument("--denoiser", required=True, help="denoiser checkpoint (.pt)")
+    attach.add_argument("--tokenizer", required=True, help="tokenizer checkpoint (.pt)")
+    attach.add_argument("--out", required=True, help="denoiser checkpoint to write")
+    attach.set_defaults(handler=_attach_tokenizer)
 
     sample = commands.add_parser(
         "sample",

@@ -57,6 +57,21 @@ def foot_skate(root_pos: Tensor, body_raw: Tensor, contacts: Tensor, fps: float)
     return (c * speed).sum() / (c.sum() + 1e-6)
 
 
+def motion_difference_error(
+    root_pos: Tensor, body_raw: Tensor, real_body_raw: Tensor, fps: float, order: int
+) -> Tensor:
+    """Mean distance between the predicted and the real joints' ``order``-th time difference
+    over the whole crop, seams included: 1 = velocity (m/s), 2 = acceleration (m/s^2). A seam
+    between two tokens' frames that the positions hide (each side close to its own frames)
+    is a step in velocity and a spike in acceleration."""
+    diff = joint_world_from_features(root_pos, body_raw) - joint_world_from_features(
+        root_pos, real_body_raw
+    )
+    for _ in range(order):
+        diff = diff[:, 1:] - diff[:, :-1]
+    return torch.linalg.vector_norm(diff, dim=-1).mean() * fps**order
+
+
 def fk_consistency(
     root_pos: Tensor, body_raw: Tensor, offsets: Tensor, parents: Sequence[int]
 ) -> Tensor:
@@ -91,6 +106,13 @@ def tokenizer_loss(
         skate = foot_skate(root_pos, body_raw, contacts, ctx.fps)
         total = total + weights["skate"] * skate
         parts["skate"] = float(skate.detach())
+    for name, order in (("velocity", 1), ("acceleration", 2)):
+        if weights.get(name, 0.0) > 0.0:
+            error = motion_difference_error(
+                root_pos, body_raw, batch["raw"][..., L.BODY_SLICE], ctx.fps, order
+            )
+            total = total + weights[name] * error
+            parts[name] = float(error.detach())
     if ctx.offsets is not None and weights.get("fk", 0.0) > 0.0:
         fk = fk_consistency(root_pos, body_raw, ctx.offsets, ctx.parents)
         total = total + weights["fk"] * fk
@@ -108,7 +130,8 @@ def denoiser_loss(
     weights: Mapping[str, float],
     generator: torch.Generator | None = None,
 ) -> tuple[Tensor, dict[str, float]]:
-    """Hybrid + decoded body + goal + FK consistency (eq. 11), weights from the config.
+    """Hybrid + decoded body + goal + FK consistency (eq. 11), and optionally foot skate
+    under the data's contacts (eq. 6 on the decoded prediction), weights from the config.
 
     ``decoder`` is the frozen DecoderGraph (normalized hybrid tokens -> normalized body);
     gradients flow through it into the prediction only.
@@ -143,12 +166,14 @@ def denoiser_loss(
     hybrid = (per * group).mean() / group.mean()
     total = weights.get("hybrid", 1.0) * hybrid
     parts = {"hybrid": float(hybrid.detach())}
-    need_decode = any(weights.get(k, 0.0) > 0.0 for k in ("decoded", "goal", "fk"))
+    need_decode = any(weights.get(k, 0.0) > 0.0 for k in ("decoded", "goal", "fk", "skate"))
     if need_decode:
         body_hat = decoder(x0_hat, batch["prev_root"], batch["prev_valid"])
         rd = cfg.root_token_dim
         frames = c * cfg.patch
         root_hat = x0_hat[..., :rd].reshape(b, frames, cfg.root_dim)
+        root_raw = root_hat * ctx.std[: L.ROOT_DIM] + ctx.mean[: L.ROOT_DIM]
+        body_raw = body_hat * ctx.std[L.ROOT_DIM :] + ctx.mean[L.ROOT_DIM :]
         if weights.get("decoded", 0.0) > 0.0:
             dec = F.smooth_l1_loss(body_hat, batch["body"])
             total = total + weights["decoded"] * dec
@@ -161,10 +186,16 @@ def denoiser_loss(
             gl = (mask * (explicit - goal)).abs().sum() / (mask.sum() + 1.0)
             total = total + weights["goal"] * gl
             parts["goal"] = float(gl.detach())
+        if weights.get("skate", 0.0) > 0.0:
+            # Contact-aware: the decoded feet of the predicted motion must not slide where
+            # the data's contact labels say a foot is planted (eq. 6 on the prediction).
+            contacts = batch["body"][..., L.CONTACT_SLICE.start - L.ROOT_DIM :]
+            contacts = contacts * ctx.std[L.CONTACT_SLICE] + ctx.mean[L.CONTACT_SLICE]
+            skate = foot_skate(root_raw[..., L.POS_SLICE], body_raw, contacts.clamp(0, 1), ctx.fps)
+            total = total + weights["skate"] * skate
+            parts["skate"] = float(skate.detach())
         if ctx.offsets is not None and weights.get("fk", 0.0) > 0.0:
-            root_raw = root_hat * ctx.std[:5] + ctx.mean[:5]
-            body_raw = body_hat * ctx.std[5:] + ctx.mean[5:]
-            fk = fk_consistency(root_raw[..., :3], body_raw, ctx.offsets, ctx.parents)
+            fk = fk_consistency(root_raw[..., L.POS_SLICE], body_raw, ctx.offsets, ctx.parents)
             total = total + weights["fk"] * fk
             parts["fk"] = float(fk.detach())
     parts["loss"] = float(total.detach())

@@ -13,10 +13,16 @@ from tqdm import tqdm
 
 from ardy_export.models import layout as L
 from ardy_export.models.layout import Skeleton
-from ardy_export.models.tokenizer import BodyTokenizer, TokenizerConfig, local_root
+from ardy_export.models.tokenizer import (
+    TOKENIZER_PARTS,
+    BodyTokenizer,
+    TokenizerConfig,
+    local_root,
+)
 from ardy_export.training import adapters
 from ardy_export.training.batches import split_long, tokenizer_batch
 from ardy_export.training.common import (
+    EMA,
     MetricsLog,
     Prefetcher,
     RunContext,
@@ -93,11 +99,25 @@ def _train(
     tcfg = TokenizerConfig.from_dict(model_cfg)
     model = BodyTokenizer(tcfg)
     ckpt: dict[str, Any] | None = None
+    init_from = config.get("init_from")
     if resume and latest.is_file():
         ckpt = torch.load(latest, map_location="cpu", weights_only=False)
+        model = BodyTokenizer(TokenizerConfig.from_dict(ckpt["config"]))
+        tcfg = model.config
         model.load_state_dict(ckpt["model"])
         mean = np.asarray(ckpt["stats"]["mean"], np.float32)
         std = np.asarray(ckpt["stats"]["std"], np.float32)
+    elif init_from:
+        # Fine-tuning a trained tokenizer (its own checkpoint or the one inside a denoiser
+        # checkpoint): its sizes, weights and statistics are kept; the model section is
+        # ignored.
+        from ardy_export.training.denoiser_train import tokenizer_from_checkpoint
+
+        model, init = tokenizer_from_checkpoint(Path(init_from))
+        model.requires_grad_(True)
+        tcfg = model.config
+        mean = np.asarray(init["stats"]["mean"], np.float32)
+        std = np.asarray(init["stats"]["std"], np.float32)
     elif config.get("stats_file"):
         # statistics written by the data pipeline (NormalizationStats.save, an .npz)
         with np.load(Path(config["stats_file"])) as saved:
@@ -109,7 +129,7 @@ def _train(
         mean, std = adapters.compute_stats(
             seqs, seed + 7, h_frames, f_frames, std_floor=float(config.get("std_floor", 0.01))
         )
-    if ckpt is None:
+    if ckpt is None and not init_from:
         lm, ls = local_root_stats(seqs, tcfg.fps)
         model.set_statistics(
             torch.from_numpy(mean[:5]),
@@ -117,7 +137,12 @@ def _train(
             torch.from_numpy(lm),
             torch.from_numpy(ls),
         )
+    frozen = freeze_parts(model, [str(part) for part in settings.extra.get("freeze", [])])
     model.to(ctx.device)
+    ema = EMA(model, settings.ema_decay)
+    if ckpt is not None and ckpt.get("ema") is not None:
+        ema.model.load_state_dict(ckpt["ema"])
+        ema.updates = int(ckpt.get("ema_updates", ckpt["step"]))
     net: torch.nn.Module = model
     if ctx.distributed:
         net = DistributedDataParallel(
@@ -154,6 +179,8 @@ def _train(
             "kind": "tokenizer",
             "step": step,
             "model": unwrap(net).state_dict(),
+            "ema": ema.model.state_dict(),
+            "ema_updates": ema.updates,
             "config": tcfg.to_dict(),
             "run_config": {k: v for k, v in config.items() if not k.startswith("_")},
             "stats": {"mean": mean.tolist(), "std": std.tolist()},
@@ -173,6 +200,8 @@ def _train(
         dynamic_ncols=True,
     )
     net.train()
+    for name in frozen:
+        getattr(model, name).eval()  # frozen parts also keep their eval behaviour
 
     def make_batch() -> dict[str, torch.Tensor]:
         tokens = int(rng.integers(int(crop[0]), int(crop[1]) + 1))
@@ -192,22 +221,69 @@ def _train(
         state,
         run_dir,
         ctx.is_main,
+        lambda: ema.update(unwrap(net)),
     )
     steps_run = settings.steps - start
     return TrainResult(run_dir, final, history, steps_run / elapsed if elapsed > 0 else 0.0)
 
 
+def freeze_parts(model: BodyTokenizer, parts: list[str]) -> list[str]:
+    """Holds the named parts (``TOKENIZER_PARTS``) fixed; returns the names of the modules
+    frozen. Freezing the encoder keeps every code (and so every latent a denoiser was trained
+    on) as it was while the decoder is fine-tuned."""
+    unknown = [part for part in parts if part not in TOKENIZER_PARTS]
+    if unknown:
+        raise ValueError(
+            f"train.freeze: unknown part {unknown[0]!r}; known: {', '.join(TOKENIZER_PARTS)}"
+        )
+    modules = [name for part in parts for name in TOKENIZER_PARTS[part]]
+    for name in modules:
+        getattr(model, name).requires_grad_(False)
+    return modules
+
+
 def load_tokenizer(path: str | Path) -> tuple[BodyTokenizer, dict[str, Any]]:
-    """A trained tokenizer (eval mode, frozen) and its checkpoint dict."""
+    """A trained tokenizer (eval mode, frozen; its EMA weights when it has them) and its
+    checkpoint dict."""
     ckpt = torch.load(Path(path), map_location="cpu", weights_only=False)
     if ckpt.get("kind") != "tokenizer":
         raise ValueError(f"{path}: not a tokenizer checkpoint (kind {ckpt.get('kind')!r})")
     tok = BodyTokenizer(TokenizerConfig.from_dict(ckpt["config"]))
-    tok.load_state_dict(ckpt["model"])
+    tok.load_state_dict(ckpt.get("ema") or ckpt["model"])
     tok.eval()
     for p in tok.parameters():
         p.requires_grad_(False)
     return tok, ckpt
+
+
+def attach_tokenizer(denoiser: Path, tokenizer: Path, out: Path) -> Path:
+    """A copy of a denoiser checkpoint with the tokenizer of a tokenizer checkpoint (its EMA
+    weights), refused unless the configs, statistics and encoder weights are the denoiser's
+    own (then every latent it was trained on decodes through the new decoder)."""
+    ckpt = torch.load(denoiser, map_location="cpu", weights_only=False)
+    if ckpt.get("kind") != "denoiser":
+        raise ValueError(f"{denoiser}: not a denoiser checkpoint (kind {ckpt.get('kind')!r})")
+    tok, tok_ckpt = load_tokenizer(tokenizer)
+    if tok.config.to_dict() != TokenizerConfig.from_dict(ckpt["tokenizer_config"]).to_dict():
+        raise ValueError(f"{tokenizer}: its tokenizer config differs from {denoiser}'s")
+    if tok_ckpt["stats"] != ckpt["stats"]:
+        raise ValueError(f"{tokenizer}: its feature statistics differ from {denoiser}'s")
+    state = tok.state_dict()
+    for name in TOKENIZER_PARTS["encoder"]:
+        prefix = name + "."
+        for key, value in state.items():
+            if key.startswith(prefix) and not torch.equal(value, ckpt["tokenizer"][key]):
+                raise ValueError(
+                    f"{tokenizer}: encoder weight {key} differs from {denoiser}'s (fine-tune "
+                    "with train.freeze: [encoder])"
+                )
+    ckpt["tokenizer"] = state
+    ckpt.setdefault("provenance_steps", []).append(
+        {"tokenizer": str(tokenizer), "tokenizer_steps": int(tok_ckpt.get("step", 0))}
+    )
+    out.parent.mkdir(parents=True, exist_ok=True)
+    torch.save(ckpt, out)
+    return out
 
 
 def main_from_file(path: str | Path, resume: bool) -> TrainResult:
