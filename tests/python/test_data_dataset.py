@@ -138,7 +138,11 @@ def test_cli_prepare(small_source: Path, tmp_path: Path, capsys: pytest.CaptureF
 
 def test_compact_copy_rebuilds_the_features(small_source: Path, tmp_path: Path) -> None:
     out, raw = tmp_path / "processed", tmp_path / "raw"
-    prepare(small_source, out, raw, workers=1, log=lambda _: None)
+    split = tmp_path / "split.json"  # one held-out clip, whatever the committed split holds
+    save_split(
+        [("dataset-2", "walk", "normal")], split, seed=0, test_fraction=0.1, min_train_groups=1
+    )
+    prepare(small_source, out, raw, workers=1, split_path=split, log=lambda _: None)
     sizes = pack_compact(out, tmp_path / "compact")
     assert sizes["compact_bytes"] < 0.3 * sizes["clips_npz_bytes"]
     frames = unpack_compact(tmp_path / "compact", tmp_path / "rebuilt")

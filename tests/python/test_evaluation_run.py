@@ -329,10 +329,21 @@ def test_report_figures_come_from_the_results(tmp_path: Path) -> None:
     assert "| ours, 4 steps | 0.512 | 0.375 | 0.73x |" in text
     assert "| ours, 4 steps, unfiltered | 0.683 | 700.0 | 200.0 | 3.50 |" in text
     # A previous package's results.json copied to previous.json is shown next to this one.
-    old = _results(0.34, 0.496, run._summary([1.5, 2.0, nan], 6.0))
+    old_resp = run._summary([1.5, 2.0, nan], 6.0)
+    old = _results(0.34, 0.496, old_resp)
     (tmp_path / "previous.json").write_text(json.dumps(old))
     text = report.write_report(now, tmp_path).read_text()
     assert "## Against the previous package" in text
     assert "`c0.34.pt`" in text
     assert "| R-precision top-3, in-bank | 0.512 | 0.496 |" in text
     assert "| response median, all pairs (s) | >= 6.00 | 2.00 |" in text
+    # Candidates tried and not shipped: one column each, then what they changed.
+    assert "## Packages tried and not shipped" not in text
+    (tmp_path / "tried").mkdir()
+    (tmp_path / "tried" / "b_more.json").write_text(json.dumps(_results(0.30, 0.45, old_resp)))
+    (tmp_path / "tried" / "a_less.json").write_text(json.dumps(_results(0.25, 0.40, old_resp)))
+    (tmp_path / "tried" / "README.md").write_text("`a_less`: fewer steps.\n")
+    text = report.write_report(now, tmp_path).read_text()
+    assert "| measure | shipped | `a_less` | `b_more` |" in text
+    assert "| R-precision top-3, in-bank | 0.512 | 0.400 | 0.450 |" in text
+    assert "`a_less`: fewer steps." in text

@@ -574,6 +574,28 @@ def _previous_lines(results: dict[str, Any], previous: dict[str, Any]) -> list[s
     ]
 
 
+def _tried_lines(
+    results: dict[str, Any], tried: dict[str, dict[str, Any]], notes: str
+) -> list[str]:
+    """Candidate packages evaluated like the shipped one but not shipped (``tried/*.json``),
+    figure by figure next to it, then ``tried/README.md`` (what each one changed)."""
+    now = _headline(results)
+    columns = {name: dict(_headline(other)) for name, other in tried.items()}
+    rows = [[name, value, *(c.get(name, "n/a") for c in columns.values())] for name, value in now]
+    return [
+        "## Packages tried and not shipped",
+        "",
+        "Each column is the `results.json` of `ardy-export eval run` on a candidate package "
+        "(`docs/evaluation/tried/NAME.json`), on the same split with the same evaluation as "
+        "the shipped one. What each candidate changed, and why it was not shipped, follows "
+        "the table (`docs/evaluation/tried/README.md`).",
+        "",
+        *_table(["measure", "shipped", *(f"`{name}`" for name in tried)], rows),
+        "",
+        *([notes.strip(), ""] if notes.strip() else []),
+    ]
+
+
 def _reading_lines(results: dict[str, Any]) -> list[str]:
     """How to read the figures, every figure taken from ``results``."""
     text = results.get("text", {})
@@ -695,7 +717,8 @@ def write_report(
 ) -> Path:
     """Writes ``out/README.md`` (and the plots next to it); returns its path. ``previous``
     (default: ``out/previous.json`` when present) is an earlier package's results on the
-    same split, shown next to this one's."""
+    same split, shown next to this one's, and so are the candidate packages' results in
+    ``out/tried/*.json`` (with ``out/tried/README.md``)."""
     import json
 
     out.mkdir(parents=True, exist_ok=True)
@@ -722,6 +745,15 @@ def write_report(
     lines += _paper_lines(results)
     if previous:
         lines += _previous_lines(results, previous)
+    tried_dir = out / "tried"
+    tried = {
+        path.stem: json.loads(path.read_text(encoding="utf-8"))
+        for path in sorted(tried_dir.glob("*.json"))
+    }
+    if tried:
+        notes = tried_dir / "README.md"
+        text = notes.read_text(encoding="utf-8") if notes.is_file() else ""
+        lines += _tried_lines(results, tried, text)
     if "text" in results:
         lines += _text_lines(results["text"])
     if "constraints" in results:
