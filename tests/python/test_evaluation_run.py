@@ -228,7 +228,12 @@ def test_report_lists_every_section_and_marks_missed_bars(tmp_path: Path) -> Non
     ):
         assert f"## {heading}" in text
     assert "2.22x" in text  # skate ratio 0.2 / 0.09
-    assert text.count("**missed**") == 2  # skate ratio and the between-frames waypoint error
+    # skate ratio, R-precision, FID and the between-frames waypoint error; the rest is met
+    assert text.count("**missed**") == 4
+    assert "| text-only foot skate / the dataset's | <= 1.6x | 2.22x | **missed** |" in text
+    assert "| prompt response median, all pairs | <= 1.2 s | 1.00 s | met |" in text
+    assert "| keyframe joints | <= 0.05 m | 0.050 m | met |" in text
+    assert "paraphrases" not in text.split("## Acceptance bars")[1].split("##")[0]
     for png in ("response.png", "stability.png", "contact_sheet.png"):
         assert (tmp_path / png).stat().st_size > 5000
 

@@ -12,10 +12,36 @@ from ardy_export.models import layout as L
 
 # Suffix of the constraint rows run without the runtime's root interpolation (run.py).
 MODEL_ONLY = ", model only"
-# The acceptance bars of the "Train, evaluate and ship" issue.
-SKATE_RATIO_BAR = 1.5
-WAYPOINT_BAR_M = 0.15
-KEYFRAME_BAR_M = 0.10
+# The acceptance bars of the model-quality issue ("A default model that follows words and
+# goals by itself"): (what, results path, "max" or "min", bar, unit). A path starting with
+# "text" or "paraphrase" reads the shipped text row; "skate_ratio" is skate / the dataset's.
+SKATE_RATIO_BAR = 1.6
+BARS: tuple[tuple[str, tuple[str, ...], str, float, str], ...] = (
+    ("text-only foot skate / the dataset's", ("skate_ratio",), "max", SKATE_RATIO_BAR, "x"),
+    ("R-precision top-3, in-bank", ("text", "r_precision_top3"), "min", 0.70, ""),
+    (
+        "R-precision top-3, held-out paraphrases",
+        ("paraphrase", "r_precision_top3"),
+        "min",
+        0.60,
+        "",
+    ),
+    ("FID", ("text", "fid"), "max", 0.30, ""),
+    ("prompt response median, all pairs", ("response", "median"), "max", 1.2, " s"),
+    ("sparse waypoints, model only", ("waypoints" + MODEL_ONLY, "error_m"), "max", 0.35, " m"),
+    ("keyframe joints, model only", ("keyframes" + MODEL_ONLY, "error_m"), "max", 0.10, " m"),
+    ("end effectors, position", ("end_effectors", "error_m"), "max", 0.07, " m"),
+    ("end effectors, rotation", ("end_effectors", "rotation_error_deg"), "max", 15.0, " deg"),
+    ("keyframe joints", ("keyframes", "error_m"), "max", 0.05, " m"),
+    ("sparse waypoints", ("waypoints", "error_m"), "max", 0.05, " m"),
+    (
+        "sparse waypoints, between frames",
+        ("waypoints", "between_frames_error_m"),
+        "max",
+        0.05,
+        " m",
+    ),
+)
 
 
 def _f(value: float | None, digits: int = 3) -> str:
@@ -371,49 +397,48 @@ def _contrast_lines(con: dict[str, Any], out: Path) -> list[str]:
     ]
 
 
+def _bar_value(results: dict[str, Any], path: tuple[str, ...]) -> float | None:
+    text = results.get("text", {})
+    ours = text.get("rows", {}).get(SHIPPED_ROW)
+    head, *rest = path
+    if head == "skate_ratio":
+        data = text.get("rows", {}).get(DATASET_ROW)
+        return _ratio(_g(ours, "foot_skate"), _g(data, "foot_skate"))
+    if head == "text":
+        return _g(ours, *rest)
+    if head == "paraphrase":
+        return _g((text.get("paraphrase_rows") or {}).get(SHIPPED_ROW), *rest)
+    if head == "response":
+        return _g(results.get("response", {}).get("response_seconds"), *rest)
+    return _g(results.get("constraints", {}).get("tasks", {}), *path)
+
+
 def _bars_lines(results: dict[str, Any]) -> list[str]:
-    text = results.get("text", {}).get("rows", {})
-    dataset = text.get("dataset (test split)")
-    ours = next((r for name, r in text.items() if name.endswith(" 4 steps")), None)
-    tasks = results.get("constraints", {}).get("tasks", {})
-    rows: list[list[str]] = []
-
-    def bar(what: str, shown: str, met: bool) -> None:
-        rows.append([what, shown, "met" if met else "**missed**"])
-
-    if dataset and ours:
-        ratio = ours["foot_skate"] / dataset["foot_skate"]
-        bar(
-            f"text-only foot skate within {SKATE_RATIO_BAR}x the dataset's",
-            f"{ratio:.2f}x",
-            ratio <= SKATE_RATIO_BAR,
+    rows = []
+    for what, path, kind, bar, unit in BARS:
+        value = _bar_value(results, path)
+        if value is None:
+            continue
+        met = value <= bar if kind == "max" else value >= bar
+        digits = 1 if unit == " deg" else 2 if unit in ("x", " s") else 3
+        shown = f"{value:.{digits}f}{unit}"
+        rows.append(
+            [
+                what,
+                f"{'<=' if kind == 'max' else '>='} {bar:g}{unit}",
+                shown,
+                "met" if met else "**missed**",
+            ]
         )
-        chance = results["text"]["r_precision_chance"]
-        r_prec = ours["r_precision_top3"]
-        bar(
-            "R-precision clearly above chance (2x)",
-            f"{r_prec:.3f} vs chance {chance:.3f}",
-            r_prec > 2 * chance,
-        )
-    for suffix in ("", MODEL_ONLY):
-        where = f"; {suffix[2:]}" if suffix else ""
-        variant = f" ({suffix[2:]})" if suffix else ""
-        if "waypoints" + suffix in tasks:
-            row = tasks["waypoints" + suffix]
-            for key, at in (("error_m", "at the frame"), ("between_frames_error_m", "between")):
-                bar(
-                    f"waypoint error under {WAYPOINT_BAR_M} m ({at}{where})",
-                    f"{row[key]:.3f} m",
-                    row[key] < WAYPOINT_BAR_M,
-                )
-        if "keyframes" + suffix in tasks:
-            value = tasks["keyframes" + suffix]["error_m"]
-            bar(
-                f"full-body keyframe error under {KEYFRAME_BAR_M} m{variant}",
-                f"{value:.3f} m",
-                value < KEYFRAME_BAR_M,
-            )
-    return ["## Acceptance bars", "", *_table(["bar", "measured", ""], rows), ""]
+    return [
+        "## Acceptance bars",
+        "",
+        "The model-quality issue's bars, on the held-out test labels, the shipped package "
+        "through the C++ runtime (model only: the runtime's root interpolation off).",
+        "",
+        *_table(["measure", "bar", "measured", ""], rows),
+        "",
+    ]
 
 
 # The ARDY paper's Table 2 (Bones Rigplay, 700 h): the dataset's row and ARDY's.
@@ -681,8 +706,10 @@ def _reading_lines(results: dict[str, Any]) -> list[str]:
             "(`ardy-export eval tokenizer`); much of the metric's skate is swinging feet the "
             "model keeps below the height threshold (low foot clearance); some stance feet "
             "slide further than the leg IK of the runtime's foot lock can reach. What would "
-            "close it: longer training of both stages, and a tokenizer with overlapping "
-            "patches or a seam loss."
+            "close it: longer training of both stages (with the denoiser's contact-aware "
+            "term), and a tokenizer with overlapping patches (velocity and acceleration "
+            "losses on the decoder alone lowered jerk but left the seams: see the packages "
+            "tried)."
         )
         bullets.append(line)
     tasks = results.get("constraints", {}).get("tasks", {})
@@ -692,9 +719,9 @@ def _reading_lines(results: dict[str, Any]) -> list[str]:
             f"{_f(_g(tasks, 'root' + MODEL_ONLY, 'error_m') or _g(tasks, 'root', 'error_m'))} m)"
             " but not isolated waypoints (model only: "
             f"{_f(_g(tasks, 'waypoints' + MODEL_ONLY, 'between_frames_error_m'))} m between "
-            "frames) or a keyframe's root position (model only: "
-            f"{_f(_g(tasks, 'keyframes' + MODEL_ONLY, 'error_m'))} m), which the paper's "
-            "model does; the shipped package turns sparse root targets into paths, giving "
+            "frames), which the paper's model does; full-body keyframes it meets within "
+            f"{_f(_g(tasks, 'keyframes' + MODEL_ONLY, 'error_m'))} m by itself (all joints). "
+            "The shipped package turns sparse root targets into paths, giving "
             f"{_f(_g(tasks, 'waypoints', 'error_m'))} m at the waypoints "
             f"({_f(_g(tasks, 'waypoints', 'between_frames_error_m'))} m between frames) and "
             f"{_f(_g(tasks, 'keyframes', 'error_m'))} m at the keyframes."
