@@ -580,9 +580,20 @@ def _package_name(results: dict[str, Any]) -> str:
     return f"`{provenance.get('checkpoint', '?')}` ({commit})"
 
 
+def _comparison_table(
+    results: dict[str, Any], others: dict[str, dict[str, Any]], shipped: str
+) -> list[str]:
+    """The headline figures of ``results`` (column ``shipped``) and of each other package's
+    results (one column per name), row by row."""
+    columns = {name: dict(_headline(other)) for name, other in others.items()}
+    rows = [
+        [name, value, *(column.get(name, "n/a") for column in columns.values())]
+        for name, value in _headline(results)
+    ]
+    return _table(["measure", shipped, *columns], rows)
+
+
 def _previous_lines(results: dict[str, Any], previous: dict[str, Any]) -> list[str]:
-    now, before = _headline(results), dict(_headline(previous))
-    rows = [[name, value, before.get(name, "n/a")] for name, value in now]
     same = _g(results, "model", "provenance") == _g(previous, "model", "provenance")
     return [
         "## Against the previous package",
@@ -594,7 +605,7 @@ def _previous_lines(results: dict[str, Any], previous: dict[str, Any]) -> list[s
         "(`docs/evaluation/previous.json`, the `results.json` of "
         "`ardy-export eval run --model OLD_PACKAGE --out DIR`).",
         "",
-        *_table(["measure", "this package", "previous package"], rows),
+        *_comparison_table(results, {"previous package": previous}, "this package"),
         "",
     ]
 
@@ -604,9 +615,6 @@ def _tried_lines(
 ) -> list[str]:
     """Candidate packages evaluated like the shipped one but not shipped (``tried/*.json``),
     figure by figure next to it, then ``tried/README.md`` (what each one changed)."""
-    now = _headline(results)
-    columns = {name: dict(_headline(other)) for name, other in tried.items()}
-    rows = [[name, value, *(c.get(name, "n/a") for c in columns.values())] for name, value in now]
     return [
         "## Packages tried and not shipped",
         "",
@@ -615,7 +623,9 @@ def _tried_lines(
         "the shipped one. What each candidate changed, and why it was not shipped, follows "
         "the table (`docs/evaluation/tried/README.md`).",
         "",
-        *_table(["measure", "shipped", *(f"`{name}`" for name in tried)], rows),
+        *_comparison_table(
+            results, {f"`{name}`": other for name, other in tried.items()}, "shipped"
+        ),
         "",
         *([notes.strip(), ""] if notes.strip() else []),
     ]
