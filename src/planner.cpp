@@ -1063,12 +1063,12 @@ bool Planner::publish(int64_t start, bool splice, size_t tokens, Rollout before,
     foot_locker_->apply(shown, filtered_motion, state, &foot_states, goal_mask);
   }
 
-  // Joint position targets reached by IK (joint_reach.hpp) on what is shown.
+  // Joint targets reached by IK and turned toward (joint_reach.hpp) on what is shown.
   if (config_.joint_reach) {
     std::vector<JointTarget> targets;
     for (const auto& entry : master_->constraints) {
       const auto* target = std::get_if<JointTarget>(&entry.second);
-      if (target && target->position && target->frame + kReachFadeFrames >= start &&
+      if (target && (target->position || target->rotation) && target->frame + kReachFadeFrames >= start &&
           target->frame - kReachFadeFrames < start + static_cast<int64_t>(count)) {
         targets.push_back(*target);
       }

@@ -110,8 +110,9 @@ struct PlannerConfig {
   std::optional<double> output_smoothing_frames;
   // Foot locking (foot_lock.hpp) on the frames shown: planted feet stay put.
   bool foot_lock = true;
-  // Joint position targets reached by two-bone IK on the frames shown
-  // (joint_reach.hpp): the joint is at its target at the target's frame.
+  // Joint targets reached on the frames shown (joint_reach.hpp): at the
+  // target's frame the joint is at its position target (two-bone IK) and
+  // turned to its rotation target.
   bool joint_reach = true;
   std::optional<bool> interpolate_root;           // GoalSpec::interpolate_root; default: the package's
   double max_root_speed = kDefaultMaxRootSpeed;   // GoalSpec::max_root_speed (m/s; 0: no limit)

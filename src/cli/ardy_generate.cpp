@@ -65,7 +65,8 @@ constexpr const char* kUsage =
     "                         the character's position (default: the package's)\n"
     "  --max-root-speed V     root targets never ask for more than V m/s, 0 = no limit (default 6)\n"
     "  --foot-lock on|off     hold planted feet in place by leg IK on the output (default on)\n"
-    "  --joint-reach on|off   reach joint position targets by two-bone IK on the output (default on)\n";
+    "  --joint-reach on|off   reach joint targets on the output: positions by two-bone IK, rotations by\n"
+    "                         turning the joint (default on)\n";
 
 // A bad command line: exit code 2.
 struct UsageError {

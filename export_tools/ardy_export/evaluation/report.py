@@ -246,8 +246,10 @@ def _constraint_lines(con: dict[str, Any]) -> list[str]:
         "towards the target for one frame instead of passing through it). *Pose*: keyframe "
         "joints relative to the root's ground point. Shipped packages turn sparse root "
         "targets (waypoints, keyframe roots) into a straight path from the character's "
-        "position (`interpolate_root`); *model only* rows switch that off "
-        "(`--interpolate-root off`) and show what the model does with isolated targets.",
+        "position (`interpolate_root`) and reach joint targets on the frames shown "
+        "(`--joint-reach`: two-bone IK for a position, turning the joint for a rotation); "
+        "*model only* rows switch both off (`--interpolate-root off --joint-reach off`) and "
+        "show what the model does with the targets by itself.",
         "",
         *_table(
             [
@@ -434,7 +436,8 @@ def _bars_lines(results: dict[str, Any]) -> list[str]:
         "## Acceptance bars",
         "",
         "The model-quality issue's bars, on the held-out test labels, the shipped package "
-        "through the C++ runtime (model only: the runtime's root interpolation off).",
+        "through the C++ runtime (model only: the runtime's root interpolation and joint "
+        "reach off).",
         "",
         *_table(["measure", "bar", "measured", ""], rows),
         "",
@@ -942,7 +945,8 @@ def _ablation_row(
 
     def task(key: str, field: str) -> float | None:
         # The model's own constraint following: without the runtime's root interpolation
-        # (packages exported before it existed have it off in their plain rows).
+        # and joint reach (packages exported before interpolation existed have it off in
+        # their plain rows).
         return tasks.get(key + MODEL_ONLY, tasks.get(key, {})).get(field)
 
     return [

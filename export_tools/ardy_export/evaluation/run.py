@@ -296,10 +296,11 @@ def constraints_section(ctx: Context) -> dict[str, Any]:
     cases = constraint_cases(
         ctx.clips, ctx.frames, ctx.fps, int(cfg["clips_per_group"]), ctx.min_frames
     )
-    # The package's settings, then (model_only) without the runtime's root interpolation.
+    # The package's settings, then (model_only) without the runtime's helpers that meet
+    # goals the model misses: root interpolation and joint reach.
     variants = [("", [])]
     if cfg.get("model_only", False):
-        variants.append((MODEL_ONLY, ["--interpolate-root", "off"]))
+        variants.append((MODEL_ONLY, ["--interpolate-root", "off", "--joint-reach", "off"]))
     tasks: dict[str, Any] = {}
     for suffix, extra in variants:
         jobs = [replace(c.job, extra_args=extra) for c in cases]

@@ -10,7 +10,8 @@ var root: Node3D
 var skeleton: Skeleton3D
 var generator: MotionGenerator
 ## One entry per skeleton update: {"time": motion clock, "bones": {name: Vector3},
-## "hips_basis": the root bone's basis in the skeleton}.
+## "rotations": {name: world Quaternion}, "hips_basis": the root bone's basis in
+## the skeleton}.
 var samples: Array[Dictionary] = []
 var watched: PackedStringArray = ["Hips", "Hand_R", "UpperArm_R", "Head"]
 ## Off for tests that measure memory: the samples grow with every frame.
@@ -35,18 +36,20 @@ func _record() -> void:
 	if not recording:
 		return
 	var bones := {}
+	var rotations := {}
 	for bone_name in watched:
 		var bone := skeleton.find_bone(bone_name)
 		if bone >= 0:
-			bones[bone_name] = (
-				skeleton.global_transform * skeleton.get_bone_global_pose(bone).origin
-			)
+			var pose := skeleton.global_transform * skeleton.get_bone_global_pose(bone)
+			bones[bone_name] = pose.origin
+			rotations[bone_name] = pose.basis.get_rotation_quaternion()
 	(
 		samples
 		. append(
 			{
 				"time": generator.get_time(),
 				"bones": bones,
+				"rotations": rotations,
 				"hips_basis": skeleton.get_bone_global_pose(0).basis,
 			}
 		)
@@ -75,6 +78,15 @@ func position_at(bone_name: String, seconds: float) -> Vector3:
 	for sample in samples:
 		if sample["time"] <= seconds and sample["bones"].has(bone_name):
 			found = sample["bones"][bone_name]
+	return found
+
+
+## The world rotation of a watched bone at the last sample at or before `seconds`.
+func rotation_at(bone_name: String, seconds: float) -> Quaternion:
+	var found := Quaternion.IDENTITY
+	for sample in samples:
+		if sample["time"] <= seconds and sample["rotations"].has(bone_name):
+			found = sample["rotations"][bone_name]
 	return found
 
 

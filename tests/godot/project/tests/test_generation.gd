@@ -215,20 +215,28 @@ func test_pose_keyframe_and_hand_target_are_matched() -> void:
 	check(mean < 0.15, "mean joint error %.3f m at the keyframe, expected under 0.15 m" % mean)
 	check_eq(reached, [0] as Array[int], "keyframe_reached fired for keyframe 0")
 
-	# A right-hand target 0.35 m in front of the chest, at shoulder height, 2 s ahead.
+	# A right-hand target 0.35 m in front of the chest, at shoulder height, 2 s
+	# ahead, with the hand turned 60 degrees about the world's x axis from now.
 	var now := generator.get_time()
 	var hips := character.last_position("Hips")
 	var facing: Basis = character.samples.back()["hips_basis"]
 	var forward := facing * Vector3(0, 0, 1)
 	forward = Vector3(forward.x, 0, forward.z).normalized()
 	var target := Vector3(hips.x, 0, hips.z) + forward * 0.35 + Vector3(0, 1.35, 0)
-	generator.add_joint_target("Hand_R", now + 2.0, target)
+	var turn := Quaternion(Vector3(1, 0, 0), deg_to_rad(60))
+	var wanted := turn * character.rotation_at("Hand_R", now)
+	generator.add_joint_target("Hand_R", now + 2.0, target, wanted)
 	check_eq(generator.get_last_error(), "", "the hand target was accepted")
 	check(await character.wait_until_time(tree, now + 2.0), "the clock reached the target's time")
 	var hand := character.position_at("Hand_R", now + 2.0)
 	var miss := hand.distance_to(target)
 	print("  right-hand target: missed by %.3f m" % miss)
 	check(miss < 0.15, "the right hand missed its target by %.3f m, expected under 0.15 m" % miss)
+	var shown := character.rotation_at("Hand_R", now + 2.0)
+	var turned_from := rad_to_deg(shown.angle_to(character.rotation_at("Hand_R", now)))
+	var off := rad_to_deg(shown.angle_to(wanted))
+	print("  right-hand rotation: %.1f deg off (turned %.1f deg since)" % [off, turned_from])
+	check(off < 5.0, "the right hand's rotation is %.1f deg off its target, expected under 5" % off)
 	character.dispose()
 
 
