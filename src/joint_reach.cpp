@@ -10,7 +10,30 @@
 
 namespace ardy {
 
-JointReach::JointReach(const Skeleton& skeleton) : skeleton_(skeleton) {}
+JointReach::JointReach(const Skeleton& skeleton) : skeleton_(skeleton), subtrees_(skeleton.joint_count()) {
+  // Parents come before their children, so one pass per joint finds the joints below it.
+  const size_t joints = skeleton_.joint_count();
+  for (size_t joint = 0; joint < joints; ++joint) {
+    std::vector<bool> below(joints, false);
+    below[joint] = true;
+    subtrees_[joint].push_back(joint);
+    for (size_t k = joint + 1; k < joints; ++k) {
+      const int parent = skeleton_.parent(k);
+      if (parent >= 0 && below[static_cast<size_t>(parent)]) {
+        below[k] = true;
+        subtrees_[joint].push_back(k);
+      }
+    }
+  }
+}
+
+void JointReach::follow_below(size_t joint, glm::mat3* global, glm::vec3* position) const {
+  for (size_t index = 1; index < subtrees_[joint].size(); ++index) {
+    const size_t k = subtrees_[joint][index];
+    const auto parent = static_cast<size_t>(skeleton_.parent(k));
+    position[k] = position[parent] + global[parent] * skeleton_.offset(k);
+  }
+}
 
 size_t JointReach::apply(int64_t start_frame, Motion& motion, const std::vector<JointTarget>& targets) const {
   const size_t joints = skeleton_.joint_count();
@@ -42,7 +65,6 @@ size_t JointReach::apply(int64_t start_frame, Motion& motion, const std::vector<
 
 bool JointReach::reach_position(const JointTarget& target, float weight, glm::mat3* global,
                                 glm::vec3* position) const {
-  const size_t joints = skeleton_.joint_count();
   const int lower = skeleton_.parent(target.joint);
   const int upper = lower > 0 ? skeleton_.parent(static_cast<size_t>(lower)) : -1;
   if (upper <= 0) return false;  // two bones below the root are needed
@@ -65,15 +87,11 @@ bool JointReach::reach_position(const JointTarget& target, float weight, glm::ma
   global[u] = turn.upper * global[u];
   global[l] = turn.lower * global[l];
   // Positions below the upper bone follow before another target reads them.
-  for (size_t k = u + 1; k < joints; ++k) {
-    const auto parent = static_cast<size_t>(skeleton_.parent(k));
-    position[k] = position[parent] + global[parent] * skeleton_.offset(k);
-  }
+  follow_below(u, global, position);
   return true;
 }
 
 bool JointReach::turn_toward(const JointTarget& target, float weight, glm::mat3* global, glm::vec3* position) const {
-  const size_t joints = skeleton_.joint_count();
   const size_t joint = target.joint;
   const glm::mat3 wanted = slerp_rotation(global[joint], glm::mat3(*target.rotation), weight);
   const glm::mat3 turn = wanted * glm::transpose(global[joint]);
@@ -83,20 +101,8 @@ bool JointReach::turn_toward(const JointTarget& target, float weight, glm::mat3*
   const bool under_90_deg = turn[0][0] + turn[1][1] + turn[2][2] > 1.0f;
   if (under_90_deg && glm::length(twice_sine_axis) < 3.5e-4f) return false;
   // The joint turns about itself; the joints below it (a foot's toes) turn with it.
-  std::vector<bool> below(joints, false);
-  below[joint] = true;
-  for (size_t k = joint + 1; k < joints; ++k) {
-    const int parent = skeleton_.parent(k);
-    below[k] = parent >= 0 && below[static_cast<size_t>(parent)];
-  }
-  for (size_t k = joint; k < joints; ++k) {
-    if (!below[k]) continue;
-    global[k] = turn * global[k];
-    if (k != joint) {
-      const auto parent = static_cast<size_t>(skeleton_.parent(k));
-      position[k] = position[parent] + global[parent] * skeleton_.offset(k);
-    }
-  }
+  for (const size_t k : subtrees_[joint]) global[k] = turn * global[k];
+  follow_below(joint, global, position);
   return true;
 }
 

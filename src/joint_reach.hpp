@@ -42,8 +42,11 @@ class JointReach {
   // blend `weight` (0..1); false when nothing moved.
   bool reach_position(const JointTarget& target, float weight, glm::mat3* global, glm::vec3* position) const;
   bool turn_toward(const JointTarget& target, float weight, glm::mat3* global, glm::vec3* position) const;
+  // Positions of the joints below `joint` from their parents' (already moved) rotations.
+  void follow_below(size_t joint, glm::mat3* global, glm::vec3* position) const;
 
   const Skeleton& skeleton_;
+  std::vector<std::vector<size_t>> subtrees_;  // per joint: itself, then the joints below it
 };
 
 }  // namespace ardy

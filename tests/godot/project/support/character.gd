@@ -74,19 +74,22 @@ func wait_until_time(tree: SceneTree, seconds: float, timeout_seconds := 60.0) -
 
 ## The world position of a watched bone at the last sample at or before `seconds`.
 func position_at(bone_name: String, seconds: float) -> Vector3:
-	var found := Vector3.INF
-	for sample in samples:
-		if sample["time"] <= seconds and sample["bones"].has(bone_name):
-			found = sample["bones"][bone_name]
-	return found
+	var found: Variant = _sampled_at("bones", bone_name, seconds)
+	return found if found != null else Vector3.INF
 
 
 ## The world rotation of a watched bone at the last sample at or before `seconds`.
 func rotation_at(bone_name: String, seconds: float) -> Quaternion:
-	var found := Quaternion.IDENTITY
+	var found: Variant = _sampled_at("rotations", bone_name, seconds)
+	return found if found != null else Quaternion.IDENTITY
+
+
+## A sample field's value for `bone_name` at the last sample at or before `seconds` (null if none).
+func _sampled_at(field: String, bone_name: String, seconds: float) -> Variant:
+	var found: Variant = null
 	for sample in samples:
-		if sample["time"] <= seconds and sample["rotations"].has(bone_name):
-			found = sample["rotations"][bone_name]
+		if sample["time"] <= seconds and sample[field].has(bone_name):
+			found = sample[field][bone_name]
 	return found
 
 
