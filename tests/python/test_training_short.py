@@ -196,14 +196,18 @@ def test_cli_train_checkpoints_and_resumes(tmp_path: Path) -> None:
     assert cli_main(["train", "tokenizer", "--config", str(path), "--quiet"]) == 0
     ckpt = torch.load(tmp_path / "run" / "latest.pt", weights_only=False)
     assert ckpt["step"] == 6 and ckpt["kind"] == "tokenizer"
-    assert (
-        cli_main(
-            ["train", "tokenizer", "--config", str(path), "--steps", "10", "--resume", "--quiet"]
-        )
-        == 0
-    )
+    # A run resumed with another thread count (--threads) continues where it stopped.
+    threads_before = torch.get_num_threads()
+    try:
+        resume_args = ["--steps", "10", "--resume", "--threads", "1", "--quiet"]
+        resumed = cli_main(["train", "tokenizer", "--config", str(path), *resume_args])
+        assert resumed == 0
+        assert torch.get_num_threads() == 1
+    finally:
+        torch.set_num_threads(threads_before)
     ckpt = torch.load(tmp_path / "run" / "latest.pt", weights_only=False)
     assert ckpt["step"] == 10
+    assert ckpt["run_config"]["train"]["threads"] == 1
     lines = (tmp_path / "run" / "metrics.jsonl").read_text().splitlines()
     assert len(lines) == 5  # steps 2, 4, 6, then 8, 10 after resuming
     den_cfg = {

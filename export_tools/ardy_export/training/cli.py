@@ -24,6 +24,8 @@ def _train(args: argparse.Namespace) -> int:
         config["seed"] = args.seed
     if args.device:
         config["device"] = args.device
+    if args.threads:
+        config.setdefault("train", {})["threads"] = args.threads
     if args.what == "tokenizer":
         from ardy_export.training.tokenizer_train import train_tokenizer
 
@@ -123,6 +125,12 @@ def add_training_commands(commands: argparse._SubParsersAction) -> None:  # type
     train.add_argument("--steps", type=int, help="override train.steps")
     train.add_argument("--seed", type=int, help="override the config's seed")
     train.add_argument("--device", choices=("auto", "cpu", "cuda"), help="override device")
+    train.add_argument(
+        "--threads",
+        type=int,
+        help="override train.threads (torch CPU threads; more when the machine frees up, "
+        "e.g. resuming after an evaluation ends)",
+    )
     train.add_argument("--quiet", action="store_true", help="no progress bar")
     train.set_defaults(handler=_train)
 
