@@ -196,6 +196,10 @@ def test_cli_train_checkpoints_and_resumes(tmp_path: Path) -> None:
     assert cli_main(["train", "tokenizer", "--config", str(path), "--quiet"]) == 0
     ckpt = torch.load(tmp_path / "run" / "latest.pt", weights_only=False)
     assert ckpt["step"] == 6 and ckpt["kind"] == "tokenizer"
+    # A run stopped between checkpoints has logged steps the resumed run repeats.
+    metrics = tmp_path / "run" / "metrics.jsonl"
+    with metrics.open("a", encoding="utf-8") as handle:
+        handle.write(json.dumps({"step": 8, "time_s": 1.0, "loss": 99.0}) + "\n")
     # A run resumed with another thread count (--threads) continues where it stopped.
     threads_before = torch.get_num_threads()
     try:
@@ -208,8 +212,9 @@ def test_cli_train_checkpoints_and_resumes(tmp_path: Path) -> None:
     ckpt = torch.load(tmp_path / "run" / "latest.pt", weights_only=False)
     assert ckpt["step"] == 10
     assert ckpt["run_config"]["train"]["threads"] == 1
-    lines = (tmp_path / "run" / "metrics.jsonl").read_text().splitlines()
-    assert len(lines) == 5  # steps 2, 4, 6, then 8, 10 after resuming
+    rows = [json.loads(line) for line in metrics.read_text().splitlines()]
+    assert [row["step"] for row in rows] == [2, 4, 6, 8, 10]  # 8 and 10 from the resumed run
+    assert all(row["loss"] != 99.0 for row in rows)  # the stopped run's step 8 is gone
     den_cfg = {
         "run_dir": str(tmp_path / "den"),
         "seed": 1,

@@ -468,13 +468,14 @@ def train_evaluator(
     rng = np.random.default_rng(seed + 1)
     gen = torch.Generator().manual_seed(seed + 2)
     start = 0
+    resumed_at: int | None = None
     if resume and latest.is_file():
         ckpt = torch.load(latest, map_location="cpu", weights_only=False)
         model.load_state_dict(ckpt["model"])
         opt.load_state_dict(ckpt["optimizer"])
         sched.load_state_dict(ckpt["scheduler"])
         restore_rng(ckpt["rng"], rng, gen)
-        start = int(ckpt["step"])
+        start = resumed_at = int(ckpt["step"])
         log(f"resuming {latest} at step {start}")
     evaluator = Evaluator(model, cfg, data.joint_names, data.fps)
 
@@ -514,7 +515,7 @@ def train_evaluator(
         opt,
         sched,
         settings,
-        MetricsLog(run_dir / "metrics.jsonl", True),
+        MetricsLog(run_dir / "metrics.jsonl", True, resumed_at),
         history,
         state,
         run_dir,

@@ -236,14 +236,25 @@ def restore_rng(state: dict[str, Any], rng: np.random.Generator, gen: torch.Gene
 
 
 class MetricsLog:
-    """Append-only JSONL of losses per logged step (``metrics.jsonl`` in the run folder)."""
+    """Append-only JSONL of losses per logged step (``metrics.jsonl`` in the run folder).
 
-    def __init__(self, path: Path, enabled: bool) -> None:
+    ``resumed_at``: the step of the checkpoint a run resumes from. Rows logged after it by the
+    stopped run are dropped, since the resumed run logs those steps again, so the file keeps
+    one row per step however often a run was stopped. ``time_s`` counts from each start.
+    """
+
+    def __init__(self, path: Path, enabled: bool, resumed_at: int | None = None) -> None:
         self.path = path
         self.enabled = enabled
         self.start = time.perf_counter()
-        if enabled:
-            path.parent.mkdir(parents=True, exist_ok=True)
+        if not enabled:
+            return
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if resumed_at is not None and path.is_file():
+            lines = path.read_text(encoding="utf-8").splitlines()
+            kept = [line for line in lines if json.loads(line)["step"] <= resumed_at]
+            if len(kept) < len(lines):
+                path.write_text("".join(line + "\n" for line in kept), encoding="utf-8")
 
     def write(self, step: int, values: dict[str, float]) -> None:
         if not self.enabled:

@@ -210,7 +210,7 @@ def _train(
     )
     sampling_defaults = {"steps": 4, "w_text": 2.0, "w_con": 2.0}
     sampling_defaults.update(config.get("sampling", {}))
-    log = MetricsLog(run_dir / "metrics.jsonl", ctx.is_main)
+    log = MetricsLog(run_dir / "metrics.jsonl", ctx.is_main, start if ckpt is not None else None)
 
     def state(step: int) -> dict[str, Any]:
         return {

@@ -172,7 +172,7 @@ def _train(
     weights.setdefault("skate", 0.01)
     skate_contacts = str(config.get("loss", {}).get("skate_contacts", "predicted"))
     crop = settings.extra.get("crop_tokens", [4, 50])
-    log = MetricsLog(run_dir / "metrics.jsonl", ctx.is_main)
+    log = MetricsLog(run_dir / "metrics.jsonl", ctx.is_main, start if ckpt is not None else None)
 
     def state(step: int) -> dict[str, Any]:
         return {
