@@ -6,9 +6,14 @@ extends PanelContainer
 ## worker, the frame rate and the main-thread cost of all characters.
 
 const REFRESH_SECONDS := 0.5
+## The shortest interval the cores figure is measured over: generation threads
+## idle between windows, so a refresh soon after another would read a few
+## milliseconds of CPU time (often none) as the crowd's load.
+const MIN_MEASURE_SECONDS := 0.25
 
 var wanderers: Array[Wanderer] = []
-## Cores generation used between the last two refreshes.
+## Cores generation used between the last two refreshes at least
+## MIN_MEASURE_SECONDS apart.
 var cores := 0.0
 var _text: Label
 var _last_cpu_seconds := NAN
@@ -35,10 +40,12 @@ func refresh() -> void:
 		_text.text = "Crowd of %d: loading the model…" % wanderers.size()
 		return
 	var wall := Time.get_ticks_usec() / 1e6
-	if not is_nan(_last_cpu_seconds) and wall > _last_wall_seconds:
-		cores = (totals.cpu_seconds - _last_cpu_seconds) / (wall - _last_wall_seconds)
-	_last_cpu_seconds = totals.cpu_seconds
-	_last_wall_seconds = wall
+	var measured := wall - _last_wall_seconds
+	if is_nan(_last_cpu_seconds) or measured >= MIN_MEASURE_SECONDS:
+		if not is_nan(_last_cpu_seconds):
+			cores = (totals.cpu_seconds - _last_cpu_seconds) / measured
+		_last_cpu_seconds = totals.cpu_seconds
+		_last_wall_seconds = wall
 	_text.text = (
 		"\n"
 		. join(
