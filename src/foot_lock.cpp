@@ -1,6 +1,7 @@
 #include "foot_lock.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <optional>
 
 #include <glm/geometric.hpp>
@@ -30,8 +31,10 @@ FootLocker::FootLocker(const Skeleton& skeleton, const FeatureLayout& layout,
     for (size_t i = 0; i < joints.size(); ++i) {
       if (joints[i] && (*joints[i] == leg.ankle || skeleton.parent(*joints[i]) == int(leg.ankle))) leg.flags.push_back(i);
     }
+    const std::vector<size_t> below_ankle = skeleton.children(leg.ankle);
+    if (!below_ankle.empty()) leg.toe = below_ankle.front();
     std::vector<size_t> leg_joints{leg.hip, leg.knee, leg.ankle};
-    for (size_t child : skeleton.children(leg.ankle)) leg_joints.push_back(child);
+    leg_joints.insert(leg_joints.end(), below_ankle.begin(), below_ankle.end());
     for (size_t j : leg_joints) {
       for (const FeatureSlice& s : {layout.joint_position_of(j), layout.rotation_6d_of(j)}) {
         for (size_t i = s.start; i < s.start + s.size; ++i) leg.features.push_back(i);
@@ -43,7 +46,7 @@ FootLocker::FootLocker(const Skeleton& skeleton, const FeatureLayout& layout,
 }
 
 void FootLocker::apply(const float* features, Motion& motion, FootLockState& state,
-                       std::vector<FootLockState>* per_frame, const float* goal_mask) const {
+                       std::vector<FootLockState>* per_frame, const float* goal_mask, const Motion* model) const {
   if (per_frame) per_frame->clear();
   const size_t j = skeleton_.joint_count(), m = layout_.feature_size;
   // Frames from f to the first frame within kFootReleaseFrames on which a
@@ -69,20 +72,56 @@ void FootLocker::apply(const float* features, Motion& motion, FootLockState& sta
       FootLockState::Leg& s = state.legs[leg];
       const glm::vec3 ankle = position[joints.ankle];
       const glm::vec2 own(ankle.x, ankle.z);
-      // The model's step of this leg this frame: the slower of ankle and knee
-      // (the return moves both; a knee swinging slower than its foot sets it).
+      // The leg's steps this frame (ankle horizontally, knee, toe) on the path
+      // shown and in the model's frames before the output filter (`model`,
+      // the largest of this frame's and the two before, as patch seams make
+      // its steps uneven; without it, the same as shown). A return moves each
+      // of them at most (1 + kFootReturnShare) x the slower of the two plus
+      // kFootReturnFloorStep, the shown path's own step counted in: a
+      // splice's join spreads a jump of the path over several frames, motion
+      // of the filter, which leaves the return less room, not more.
       const glm::vec3 knee = position[joints.knee];
-      const float knee_step = s.has_own ? glm::length(knee - s.knee_before) : 0.0f;
-      const float own_step = s.has_own ? std::min(glm::length(own - s.own_before), knee_step) : 0.0f;
+      const std::array<glm::vec3, 3> leg_now{ankle, knee, position[joints.toe.value_or(joints.ankle)]};
+      const auto steps = [](const std::array<glm::vec3, 3>& now, const std::array<glm::vec3, 3>& before) {
+        const glm::vec3 ankle_step = now[0] - before[0];
+        return std::array<float, 3>{glm::length(glm::vec2(ankle_step.x, ankle_step.z)),
+                                    glm::length(now[1] - before[1]), glm::length(now[2] - before[2])};
+      };
+      const std::array<float, 3> shown_steps = s.has_own ? steps(leg_now, s.leg_before) : std::array<float, 3>{};
+      std::array<float, 3> model_steps = shown_steps;
+      if (model) {
+        const glm::vec3* unfiltered = model->positions_of(f);
+        const std::array<glm::vec3, 3> model_now{unfiltered[joints.ankle], unfiltered[joints.knee],
+                                                 unfiltered[joints.toe.value_or(joints.ankle)]};
+        if (s.has_model) {
+          const std::array<float, 3> now = steps(model_now, s.model_before);
+          for (size_t i = 0; i < 3; ++i) {
+            model_steps[i] = std::max({now[i], s.model_steps_before[0][i], s.model_steps_before[1][i]});
+          }
+          s.model_steps_before = {now, s.model_steps_before[0]};
+        }
+        s.model_before = model_now;
+        s.has_model = true;
+      }
+      std::array<float, 3> bound{};  // how far each may move this frame
+      float return_room = std::numeric_limits<float>::max();
+      for (size_t i = 0; i < 3; ++i) {
+        bound[i] = (1.0f + kFootReturnShare) * std::min(shown_steps[i], model_steps[i]) + kFootReturnFloorStep;
+        return_room = std::min(return_room, bound[i] - shown_steps[i]);
+      }
+      return_room = std::max(0.0f, return_room);
       const glm::vec3 knee_shown_before = s.has_own ? s.knee_shown : knee;
-      s.own_before = own;
-      s.knee_before = knee;
+      const bool had_own = s.has_own;
+      // Where the foot goes if it keeps last frame's offset from the model's
+      // path: the leg moves as the model's does.
+      const glm::vec2 with_the_body = s.has_own ? own + s.shown - glm::vec2(s.leg_before[0].x, s.leg_before[0].z) : own;
+      s.leg_before = leg_now;
       s.knee_shown = knee;  // unless the IK below moves it
       s.has_own = true;
       const float psi = heading_angle(row[layout_.heading.start], row[layout_.heading.start + 1]);
       const glm::vec3 bend_axis = heading_rotation(psi) * glm::vec3(1.0f, 0.0f, 0.0f);
       const auto solve = [&](glm::vec2 target) {
-        return two_bone_ik(position[joints.hip], knee, ankle, glm::vec3(target.x, ankle.y, target.y), bend_axis);
+        return two_bone_ik(position[joints.hip], knee, ankle, glm::vec3(target.x, ankle.y, target.y), bend_axis, true);
       };
       const auto knee_after = [&](const TwoBoneRotations& turn) {
         return position[joints.hip] + turn.upper * (knee - position[joints.hip]);
@@ -124,24 +163,67 @@ void FootLocker::apply(const float* features, Motion& motion, FootLockState& sta
         // Back toward the model's path no faster than the model's own leg
         // moves allows; a constraint ahead makes it arrive by the constrained frame.
         const float left = glm::length(s.offset);
-        const float cap = kFootReturnShare * own_step + kFootReturnFloorStep;
+        const float cap = return_room;
         float step = std::min({cap, s.return_step + 0.5f * cap, std::max(0.5f * left, kFootReturnFloorStep)});
-        if (constrained) {
-          step = std::max(step, left / static_cast<float>(*constrained + 1));
-        } else {
-          // Near full extension the IK's knee moves many times as far as the
-          // ankle's target: shorten the step while the knee would outrun the
-          // model's knee by more than the same share.
-          const float knee_cap = (1.0f + kFootReturnShare) * knee_step + kFootReturnFloorStep;
-          for (int halvings = 0; halvings < 4 && left > 0.0f && step > 0.25f * kFootReturnFloorStep; ++halvings) {
-            const glm::vec2 t = own + s.offset * ((left - std::min(step, left)) / left);
-            if (glm::length(knee_after(solve(t)) - knee_shown_before) <= knee_cap) break;
-            step *= 0.5f;
-          }
-        }
+        if (constrained) step = std::max(step, left / static_cast<float>(*constrained + 1));
         step = std::min(step, left);
-        s.return_step = step;
-        s.offset = left > 0.0f ? s.offset * ((left - step) / left) : glm::vec2(0.0f);
+        target = own + (left > 0.0f ? s.offset * ((left - step) / left) : glm::vec2(0.0f));
+      }
+      if ((s.planted || s.returning) && !constrained && had_own) {
+        // Near full extension the IK's knee moves many times as far as the
+        // ankle's target: while the knee would outrun the model's knee by more
+        // than kFootReturnShare, the foot goes halfway back to moving with the
+        // body (a held foot slips a little, a return slows) rather than the
+        // knee popping.
+        const float knee_cap = bound[1];
+        const glm::vec2 wanted = target;
+        for (int halvings = 0; halvings < 4; ++halvings) {
+          if (glm::length(knee_after(solve(target)) - knee_shown_before) <= knee_cap) break;
+          target = with_the_body + (target - with_the_body) * 0.5f;
+        }
+        if (s.planted) s.pin += target - wanted;  // held on from where it slipped to
+      }
+      // How far the knee stands off the line from hip to ankle with the ankle
+      // at a target (as if the two bones were as long): near full extension
+      // it changes fast, so a locked leg's changes by at most the model's own
+      // change plus kFootBendStep a frame; where the target asks more, the
+      // foot lands short of it (or past it) on the line from the hip, and a
+      // held foot slips.
+      const glm::vec3 hip = position[joints.hip];
+      const float leg_length = glm::length(knee - hip) + glm::length(ankle - knee);
+      const auto bend = [&](glm::vec2 at) {
+        const float stretch = glm::length(glm::vec3(at.x, ankle.y, at.y) - hip) / leg_length;
+        return 0.5f * leg_length * std::sqrt(1.0f - std::min(stretch * stretch, 1.0f));
+      };
+      const float own_bend = bend(own);
+      if ((s.planted || s.returning) && !constrained && had_own) {
+        const float allowed = std::abs(own_bend - s.own_bend_before) + kFootBendStep;
+        const float wanted_bend = bend(target);
+        const float limited = std::clamp(wanted_bend, s.bend_shown - allowed, s.bend_shown + allowed);
+        const glm::vec2 above(hip.x, hip.z);
+        const glm::vec2 away = target - above;
+        if (limited != wanted_bend && glm::length(away) > 1e-4f) {
+          // The hip-to-ankle distance of that bend, then the horizontal reach
+          // at the ankle's height.
+          const float ratio = std::min(1.0f, 2.0f * limited / leg_length);
+          const float distance = leg_length * std::sqrt(1.0f - ratio * ratio);
+          const float drop = ankle.y - hip.y;
+          const float reach = std::sqrt(std::max(0.0f, distance * distance - drop * drop));
+          const glm::vec2 before = target;
+          target = above + away * (reach / glm::length(away));
+          // The slip moves the ankle no faster than its bound (or than the
+          // target wanted anyway): the knee gives a little instead.
+          const float most = std::max(bound[0], glm::length(before - s.shown));
+          const glm::vec2 step = target - s.shown;
+          if (glm::length(step) > most) target = s.shown + step * (most / glm::length(step));
+          if (s.planted) s.pin += target - before;  // held on from where it slipped to
+        }
+      }
+      s.own_bend_before = own_bend;
+      if (s.returning) {
+        const float left = glm::length(s.offset);
+        s.offset = target - own;
+        s.return_step = std::max(0.0f, left - glm::length(s.offset));
         if (glm::length(s.offset) < 1e-4f) {
           // Back on the path: a foot let go while still down (a standing
           // model's foot drifting) may be held again, or it would slide on
@@ -153,6 +235,7 @@ void FootLocker::apply(const float* features, Motion& motion, FootLockState& sta
         target = own + s.offset;
       }
       s.shown = target;
+      s.bend_shown = bend(target);
       if (glm::length(target - own) < 1e-4f) continue;
       const TwoBoneRotations turn = solve(target);
       s.knee_shown = knee_after(turn);

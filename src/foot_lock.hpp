@@ -21,6 +21,7 @@
 
 #include <array>
 #include <cstddef>
+#include <optional>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -35,15 +36,21 @@ namespace ardy {
 // Frames before a constrained frame at which a held foot starts its return
 // (it is on the model's path at the constrained frame).
 constexpr size_t kFootReleaseFrames = 6;
-// A returning foot closes its distance to the model's path by at most this
-// share of the model's own step of the leg that frame (the slower of ankle
-// and knee, as the return moves both) plus kFootReturnFloorStep, so the
-// shown leg moves at most about 1 + share times as fast as the model's; the
-// floor lets a foot the model keeps still come back too (0.4 m/s at 20 fps:
-// a 0.25 m hold in under a second). Near full extension the IK moves the
-// knee many times as far as the ankle, so the step is also halved while the
-// knee would outrun the same bound. The rate eases in over two frames and
-// the last part halves each frame: the return starts and ends softly.
+// A returning foot closes its distance to the model's path so that each of
+// ankle, knee and toe moves at most 1 + this share times the model's own step
+// of that joint plus kFootReturnFloorStep a frame, its motion along the
+// shown path included. The model's step is the slower of the shown path's
+// and (when the planner passes them) the frames before the output filter,
+// there the largest of three frames (patch seams make them uneven): a
+// splice's join spreads a jump of the path over several frames, motion of
+// the filter that leaves a return less room, not more. The floor lets a foot
+// the model keeps still come back too (0.4 m/s at 20 fps: a 0.25 m hold in
+// under a second). Near full extension the IK moves the knee many times as
+// far as the ankle, so while the knee would outrun its bound, held or
+// returning, the foot goes halfway back to moving with the body, up to four
+// times (a held foot slips, a return slows). The rate eases in over two
+// frames and the last part halves each frame: the return starts and ends
+// softly.
 constexpr float kFootReturnShare = 0.4f;
 constexpr float kFootReturnFloorStep = 0.02f;  // m per model frame
 // A foot is planted when its strongest contact flag rises above kFootPlantFlag
@@ -58,6 +65,11 @@ constexpr float kFootLockHeight = 0.2f;
 // body has moved on: a root target dragged it, say); once back on the
 // model's path it may be held again.
 constexpr float kFootLockMaxPull = 0.25f;
+// A locked leg's knee stands off the line from hip to ankle by at most the
+// model's own change of that plus this a frame (m): near full extension a
+// small change of the leg's stretch moves the knee far (a straight leg
+// bending to 0.98 of its length moves a 0.45 m thigh's knee 9 cm).
+constexpr float kFootBendStep = 0.01f;
 
 // What carries over from one shown frame to the next, per leg.
 struct FootLockState {
@@ -68,10 +80,14 @@ struct FootLockState {
     bool returning = false;        // lifted, on its way back to the model's path
     glm::vec2 offset{0.0f};        // shown ankle minus the model's (x, z), last frame
     float return_step = 0.0f;      // how much the offset shrank last frame (m)
-    bool has_own = false;          // own_before is set
-    glm::vec2 own_before{0.0f};    // the model's ankle (x, z) last frame
-    glm::vec3 knee_before{0.0f};   // the model's knee last frame
+    bool has_own = false;          // leg_before is set
+    std::array<glm::vec3, 3> leg_before{};    // the model's ankle, knee and toe last frame
     glm::vec3 knee_shown{0.0f};    // the knee as shown last frame
+    float bend_shown = 0.0f;       // the knee off the hip-ankle line as shown last frame (m)
+    float own_bend_before = 0.0f;  // the model's, last frame
+    bool has_model = false;        // model_before is set
+    std::array<glm::vec3, 3> model_before{};  // the same before the output filter
+    std::array<std::array<float, 3>, 2> model_steps_before{};  // their steps the two frames before
     bool let_go = false;           // pulled too far: not held again until the flags drop or it is back on the path
     size_t held = 0;               // frames held so far (the hold eases in)
   };
@@ -92,13 +108,17 @@ class FootLocker {
   // the state after the frame before the first; it becomes the state after
   // the last. `per_frame` (optional) receives the state after each frame.
   // `goal_mask` (optional, [at least frame_count, M], the window's goal mask
-  // frame by frame): where the leg's joints are constrained.
+  // frame by frame): where the leg's joints are constrained. `model`
+  // (optional, the same frames before the output filter): a return is also
+  // capped by the leg's step there.
   void apply(const float* features, Motion& motion, FootLockState& state,
-             std::vector<FootLockState>* per_frame = nullptr, const float* goal_mask = nullptr) const;
+             std::vector<FootLockState>* per_frame = nullptr, const float* goal_mask = nullptr,
+             const Motion* model = nullptr) const;
 
  private:
   struct LegJoints {
     size_t hip = 0, knee = 0, ankle = 0;
+    std::optional<size_t> toe;     // the ankle's first child, if any
     std::vector<size_t> flags;     // contact flag indices of this foot
     std::vector<size_t> features;  // position and rotation features of the leg's joints (goal mask entries)
   };

@@ -5,6 +5,7 @@
 #include <string>
 
 #include <glm/geometric.hpp>
+#include <glm/gtc/constants.hpp>
 
 namespace ardy {
 namespace {
@@ -139,17 +140,31 @@ glm::mat3 rotation_between(const glm::vec3& u, const glm::vec3& v) {
 }
 
 TwoBoneRotations two_bone_ik(const glm::vec3& a, const glm::vec3& b, const glm::vec3& c, const glm::vec3& target,
-                             const glm::vec3& bend_axis) {
+                             const glm::vec3& bend_axis, bool hinge) {
   const float upper = glm::length(b - a), lower = glm::length(c - b);
   if (upper < 1e-6f || lower < 1e-6f) return {};
   // Never quite straight (the knee's plane would be lost) nor folded.
   const float reach = std::clamp(glm::length(target - a), std::abs(upper - lower) + 1e-4f, 0.999f * (upper + lower));
-  glm::vec3 normal = glm::cross(b - a, c - b);
-  const float bend = glm::length(normal);
-  normal = bend > 1e-4f * upper * lower ? normal / bend : bend_axis;
-  // The knee's interior angle now and for `reach` (law of cosines); turning
-  // the lower bone by +phi about `normal` closes the angle by phi.
-  const float now = std::acos(std::clamp(glm::dot(glm::normalize(a - b), glm::normalize(c - b)), -1.0f, 1.0f));
+  const glm::vec3 upper_direction = (b - a) / upper, lower_direction = (c - b) / lower;
+  const glm::vec3 own_normal = glm::cross(upper_direction, lower_direction);
+  const float bend = glm::length(own_normal);
+  glm::vec3 normal = bend > 1e-4f ? own_normal / bend : bend_axis;
+  if (hinge) {
+    // Near straight the knee's own plane is noise (a knee a degree past
+    // straight flips it): within kStraightBend it turns toward `bend_axis`
+    // made perpendicular to the upper bone, all the way for a straight or
+    // backward-bent knee.
+    glm::vec3 axis_normal = bend_axis - glm::dot(bend_axis, upper_direction) * upper_direction;
+    axis_normal = glm::length(axis_normal) > 1e-4f ? glm::normalize(axis_normal) : bend_axis;
+    const bool forward = glm::dot(own_normal, axis_normal) > 0.0f;
+    const float own_weight = forward ? std::min(1.0f, bend / std::sin(kStraightBend)) : 0.0f;
+    normal = own_weight * normal + (1.0f - own_weight) * axis_normal;
+    normal = glm::length(normal) > 1e-6f ? glm::normalize(normal) : axis_normal;
+  }
+  // The knee's interior angle on the front of that plane now and for `reach`
+  // (law of cosines; past straight it is over 180 degrees); turning the lower
+  // bone by +phi about `normal` closes the angle by phi.
+  const float now = glm::pi<float>() - std::atan2(glm::dot(own_normal, normal), glm::dot(upper_direction, lower_direction));
   const float wanted =
       std::acos(std::clamp((upper * upper + lower * lower - reach * reach) / (2.0f * upper * lower), -1.0f, 1.0f));
   const glm::mat3 knee = rotation_about(normal, now - wanted);

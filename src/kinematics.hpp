@@ -60,13 +60,16 @@ glm::mat3 rotation_between(const glm::vec3& u, const glm::vec3& v);
 // `target` (or as close as the bone lengths allow, never fully straight), the
 // bones keep their lengths and the knee keeps bending in the plane it bends
 // in now; `bend_axis` (unit) is that plane's normal for a straight limb (for
-// a leg: the character's left-to-right axis).
+// a leg: the character's left-to-right axis). `hinge`: the joint bends only
+// to the front of `bend_axis` (a knee), so within kStraightBend of straight,
+// or bent backward, it bends about `bend_axis` instead of its own plane.
 struct TwoBoneRotations {
   glm::mat3 upper{1.0f};
   glm::mat3 lower{1.0f};
 };
+constexpr float kStraightBend = 0.1f;  // radians
 TwoBoneRotations two_bone_ik(const glm::vec3& a, const glm::vec3& b, const glm::vec3& c, const glm::vec3& target,
-                             const glm::vec3& bend_axis);
+                             const glm::vec3& bend_axis, bool hinge = false);
 
 // --- skeletons ---------------------------------------------------------------
 

@@ -1060,7 +1060,7 @@ bool Planner::publish(int64_t start, bool splice, size_t tokens, Rollout before,
       if (at < before_start->foot_states.size()) state = before_start->foot_states[at];
     }
     const float* goal_mask = result->goal_mask.empty() ? nullptr : result->goal_mask.data();
-    foot_locker_->apply(shown, filtered_motion, state, &foot_states, goal_mask);
+    foot_locker_->apply(shown, filtered_motion, state, &foot_states, goal_mask, &result->motion);
   }
 
   // Joint targets reached by IK and turned toward (joint_reach.hpp) on what is shown.

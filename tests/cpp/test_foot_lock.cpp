@@ -25,11 +25,13 @@ using Catch::Matchers::WithinAbs;
 
 namespace {
 
-// World features of a body standing with slightly bent knees (thighs 20
-// degrees forward, shins 20 degrees back), gliding along +z at `speed` m/s;
-// the left foot's flags are `left_flag(frame)`, the right foot's 0.
+// World features of a body standing with bent knees (thighs `bend` radians
+// forward, shins as far back: by default 34 degrees, so a hold of 0.25 m
+// stretches the leg to 0.85 of its length, clear of kFootLockMaxStretch),
+// gliding along +z at `speed` m/s; the left foot's flags are
+// `left_flag(frame)`, the right foot's 0.
 template <typename Flag>
-std::vector<float> gliding(size_t frames, double speed, Flag left_flag) {
+std::vector<float> gliding(size_t frames, double speed, Flag left_flag, float bend = 0.6f) {
   const ardy::ModelPackage& p = *tiny_package();
   const ardy::FeatureLayout& layout = p.layout();
   const size_t m = layout.feature_size;
@@ -41,10 +43,10 @@ std::vector<float> gliding(size_t frames, double speed, Flag left_flag) {
     row[layout.heading.start] = 1.0f;
     for (size_t j = 0; j < layout.joint_count; ++j) {
       const std::string& name = p.skeleton().name(j);
-      float bend = 0.0f;
-      if (name.rfind("UpperLeg", 0) == 0) bend = -0.35f;
-      if (name.rfind("LowerLeg", 0) == 0) bend = 0.35f;
-      ardy::rotation_to_6d(ardy::rotation_about(glm::vec3(1, 0, 0), bend), row + layout.rotation_6d_of(j).start);
+      float turn = 0.0f;
+      if (name.rfind("UpperLeg", 0) == 0) turn = -bend;
+      if (name.rfind("LowerLeg", 0) == 0) turn = bend;
+      ardy::rotation_to_6d(ardy::rotation_about(glm::vec3(1, 0, 0), turn), row + layout.rotation_6d_of(j).start);
     }
     row[layout.foot_contacts.start + 0] = left_flag(f);  // Foot_L
     row[layout.foot_contacts.start + 1] = left_flag(f);  // Toes_L
@@ -93,6 +95,30 @@ TEST_CASE("two-bone IK puts the ankle on the target, keeps the bones and the kne
   CHECK(c2.x == Catch::Approx(0.0f).margin(1e-4));
   CHECK(glm::length(c2 - a) < glm::length(b - a) + glm::length(c - b));
   CHECK(glm::length(c2 - a) > 0.99f * (glm::length(b - a) + glm::length(c - b)));
+}
+
+TEST_CASE("a hinge knee near straight bends forward about the axis, whichever side of straight it is on",
+          "[foot_lock][kinematics]") {
+  // A straight leg along -y, the knee half a degree in front of straight or
+  // half a degree behind it (past straight): both bend forward (+z, the
+  // front of the axis +x) to the same knee for a target 5 cm closer, where
+  // the knee's own plane would put them on opposite sides.
+  const glm::vec3 hip(0.0f, 1.0f, 0.0f), axis(1.0f, 0.0f, 0.0f);
+  const auto knee_for = [&](float lean, bool hinge) {
+    const glm::vec3 knee = hip + 0.45f * glm::vec3(0.0f, -std::cos(lean), std::sin(lean));
+    const glm::vec3 ankle = knee + 0.45f * glm::vec3(0.0f, -std::cos(lean), -std::sin(lean));
+    const ardy::TwoBoneRotations turn = ardy::two_bone_ik(hip, knee, ankle, hip + glm::vec3(0.0f, -0.85f, 0.0f), axis, hinge);
+    const glm::vec3 moved_knee = hip + turn.upper * (knee - hip);
+    const glm::vec3 moved_ankle = moved_knee + turn.lower * (ankle - knee);
+    CHECK(glm::length(moved_ankle - (hip + glm::vec3(0.0f, -0.85f, 0.0f))) < 1e-3f);
+    return moved_knee;
+  };
+  const float half_degree = 0.5f * 3.14159265f / 180.0f;
+  const glm::vec3 front = knee_for(half_degree, true), behind = knee_for(-half_degree, true);
+  CHECK(front.z > 0.1f);
+  CHECK(glm::length(front - behind) < 0.01f);
+  // Without `hinge` the knee keeps its own plane: behind straight it bends back.
+  CHECK(knee_for(-half_degree, false).z < -0.1f);
 }
 
 TEST_CASE("a planted foot stays where it landed while the body glides on, then rejoins its path",
@@ -234,4 +260,75 @@ TEST_CASE("a foot let go while still down is held again once back on the model's
     const float step = glm::length(joint(locked, f, "Foot_L") - joint(locked, f - 1, "Foot_L"));
     CHECK(step <= (1.0f + ardy::kFootReturnShare) * own_step + ardy::kFootReturnFloorStep + 1e-4f);
   }
+}
+
+TEST_CASE("a return is capped by the model's own frames before the output filter, not by the filter's motion",
+          "[foot_lock]") {
+  // Shown (filtered) frames: the body glides on at 0.4 m/s; the model's own
+  // frames: it stood still. A splice's join moves the shown path like this
+  // for a few frames: the returning foot gets no extra room from it.
+  const ardy::ModelPackage& p = *tiny_package();
+  const FootLocker locker(p.skeleton(), p.layout(), p.contact_joints());
+  const size_t frames = 30, planted = 10;
+  const auto flags = [&](size_t f) { return f < planted ? 1.0f : 0.0f; };
+  const std::vector<float> features = gliding(frames, 0.4, flags);
+  const Motion still = motion_of(gliding(frames, 0.0, flags));
+  const Motion own = motion_of(features);
+  const auto offsets = [&](const Motion* model) {
+    Motion locked = own;
+    FootLockState state;
+    locker.apply(features.data(), locked, state, nullptr, nullptr, model);
+    std::vector<float> out;
+    for (size_t f = 0; f < frames; ++f) out.push_back(glm::length(joint(locked, f, "Foot_L") - joint(own, f, "Foot_L")));
+    return out;
+  };
+  const std::vector<float> filtered_only = offsets(nullptr), with_model = offsets(&still);
+  const float glide_step = 0.4f / float(p.fps());
+  for (size_t f = planted; f < frames; ++f) {
+    INFO("frame " << f);
+    // The shown path moves a glide step a frame, the model's own none: a
+    // return's room, (1 + share) x 0 + floor - glide step, is 0.
+    CHECK_THAT(with_model[f], WithinAbs(with_model[planted], 1e-4));
+    CHECK(with_model[f] > 0.1f);
+  }
+  CHECK(filtered_only[frames - 1] < 1e-6f);  // capped by the shown path alone it is back
+  CHECK(glide_step == ardy::kFootReturnFloorStep);  // what makes the room exactly 0
+}
+
+TEST_CASE("a locked leg straightens no faster than the model's: near full extension the held foot slips",
+          "[foot_lock]") {
+  // Nearly straight legs (11 degrees at hip and knee: 0.98 of their length)
+  // and the body gliding at 1 m/s with the left foot's flags up throughout:
+  // held, the leg would be pulled straight within a frame or two, and the
+  // two-bone IK swings the knee far for a small change of stretch there.
+  const ardy::ModelPackage& p = *tiny_package();
+  const FootLocker locker(p.skeleton(), p.layout(), p.contact_joints());
+  const size_t frames = 30;
+  const std::vector<float> features = gliding(frames, 1.0, [](size_t) { return 1.0f; }, 0.2f);
+  const Motion own = motion_of(features);
+  Motion locked = own;
+  FootLockState state;
+  locker.apply(features.data(), locked, state);
+  const auto stretch = [&](const Motion& motion, size_t f) {
+    const float leg = glm::length(joint(motion, f, "LowerLeg_L") - joint(motion, f, "UpperLeg_L")) +
+                      glm::length(joint(motion, f, "Foot_L") - joint(motion, f, "LowerLeg_L"));
+    return glm::length(joint(motion, f, "Foot_L") - joint(motion, f, "UpperLeg_L")) / leg;
+  };
+  float largest_offset = 0.0f, largest_knee_step = 0.0f;
+  for (size_t f = 1; f < frames; ++f) {
+    INFO("frame " << f << ": stretch " << stretch(locked, f));
+    const auto bend = [&](const Motion& motion, size_t g) {  // as foot_lock.cpp measures it
+      const float leg = glm::length(joint(motion, g, "LowerLeg_L") - joint(motion, g, "UpperLeg_L")) +
+                        glm::length(joint(motion, g, "Foot_L") - joint(motion, g, "LowerLeg_L"));
+      return 0.5f * leg * std::sqrt(1.0f - std::min(1.0f, stretch(motion, g) * stretch(motion, g)));
+    };
+    CHECK(std::abs(bend(locked, f) - bend(locked, f - 1)) <=
+          std::abs(bend(own, f) - bend(own, f - 1)) + ardy::kFootBendStep + 1e-3f);
+    largest_offset = std::max(largest_offset, glm::length(joint(locked, f, "Foot_L") - joint(own, f, "Foot_L")));
+    largest_knee_step = std::max(
+        largest_knee_step, glm::length(joint(locked, f, "LowerLeg_L") - joint(locked, f - 1, "LowerLeg_L")));
+  }
+  CHECK(largest_offset > 0.02f);  // held a while: the foot lags the body
+  // The model's knee moves 0.05 m a frame: the locked one hardly faster.
+  CHECK(largest_knee_step <= (1.0f + ardy::kFootReturnShare) * 0.05f + ardy::kFootReturnFloorStep);
 }
