@@ -66,10 +66,11 @@ constexpr float kFootLockHeight = 0.2f;
 // model's path it may be held again.
 constexpr float kFootLockMaxPull = 0.25f;
 // A locked leg's knee stands off the line from hip to ankle by at most the
-// model's own change of that plus this a frame (m): near full extension a
-// small change of the leg's stretch moves the knee far (a straight leg
-// bending to 0.98 of its length moves a 0.45 m thigh's knee 9 cm).
-constexpr float kFootBendStep = 0.01f;
+// model's own change of that plus this a frame (m, 1 m/s): near full
+// extension a small change of the leg's stretch moves the knee far (a
+// straight leg bending to 0.98 of its length moves a 0.45 m thigh's knee
+// 9 cm). Holds in a walk change it by less (0.01 a frame slid them).
+constexpr float kFootBendStep = 0.05f;
 
 // What carries over from one shown frame to the next, per leg.
 struct FootLockState {

@@ -24,12 +24,13 @@
 // leg speed, and the output filter's join fades a step of a few millimetres
 // a frame; kSpeedFloor = 0.75 m/s covers both with a margin and is far below
 // any pop (the was 15 m/s). The worst case measured on the 10-minute
-// session after the fix was 0.84 of its limit (stage 5 model). With stage 6,
-// in 20 runs (2026-12-03): the worst leg joint 0.85 of its limit, the worst
-// joint a waving right hand 1.00 of it once (0.998; the output filter's join
-// of an appended window, no foot lock involved), the next 0.85. Before the
-// foot lock's bounds against the unfiltered frames and its hinge knee, 3 of
-// 6 runs failed (a toe 1.01x, a knee up to 1.6x, all right after a join).
+// session after the fix was 0.84 of its limit (stage 5 model). With stage 6
+// (2026-12-03), 30 runs of the foot lock as it is: worst 0.90 of the limit,
+// 0.84 in 20 of them. Before its bounds against the unfiltered frames, its
+// bend limit and its hinge knee, 3 of 6 runs failed (a toe 1.01x, a knee up
+// to 1.6x, all right after an output-filter join). A waving right hand once
+// reached 0.998 of its limit with an earlier version (the output filter's
+// join of an appended window, no foot lock involved).
 
 #include <algorithm>
 #include <cmath>
