@@ -169,26 +169,9 @@ void FootLocker::apply(const float* features, Motion& motion, FootLockState& sta
         step = std::min(step, left);
         target = own + (left > 0.0f ? s.offset * ((left - step) / left) : glm::vec2(0.0f));
       }
-      if ((s.planted || s.returning) && !constrained && had_own) {
-        // Near full extension the IK's knee moves many times as far as the
-        // ankle's target: while the knee would outrun the model's knee by more
-        // than kFootReturnShare, the foot goes halfway back to moving with the
-        // body (a held foot slips a little, a return slows) rather than the
-        // knee popping.
-        const float knee_cap = bound[1];
-        const glm::vec2 wanted = target;
-        for (int halvings = 0; halvings < 4; ++halvings) {
-          if (glm::length(knee_after(solve(target)) - knee_shown_before) <= knee_cap) break;
-          target = with_the_body + (target - with_the_body) * 0.5f;
-        }
-        if (s.planted) s.pin += target - wanted;  // held on from where it slipped to
-      }
       // How far the knee stands off the line from hip to ankle with the ankle
       // at a target (as if the two bones were as long): near full extension
-      // it changes fast, so a locked leg's changes by at most the model's own
-      // change plus kFootBendStep a frame; where the target asks more, the
-      // foot lands short of it (or past it) on the line from the hip, and a
-      // held foot slips.
+      // it changes fast.
       const glm::vec3 hip = position[joints.hip];
       const float leg_length = glm::length(knee - hip) + glm::length(ankle - knee);
       const auto bend = [&](glm::vec2 at) {
@@ -197,6 +180,19 @@ void FootLocker::apply(const float* features, Motion& motion, FootLockState& sta
       };
       const float own_bend = bend(own);
       if ((s.planted || s.returning) && !constrained && had_own) {
+        const glm::vec2 wanted = target;
+        // Near full extension the IK's knee moves many times as far as the
+        // ankle's target: while the knee would outrun the model's knee by more
+        // than kFootReturnShare, the foot goes halfway back to moving with the
+        // body (a held foot slips a little, a return slows) rather than the
+        // knee popping.
+        for (int halvings = 0; halvings < 4; ++halvings) {
+          if (glm::length(knee_after(solve(target)) - knee_shown_before) <= bound[1]) break;
+          target = with_the_body + (target - with_the_body) * 0.5f;
+        }
+        // A locked leg's bend changes by at most the model's own change plus
+        // kFootBendStep a frame; where the target asks more, the foot lands
+        // short of it (or past it) on the line from the hip.
         const float allowed = std::abs(own_bend - s.own_bend_before) + kFootBendStep;
         const float wanted_bend = bend(target);
         const float limited = std::clamp(wanted_bend, s.bend_shown - allowed, s.bend_shown + allowed);
@@ -216,8 +212,8 @@ void FootLocker::apply(const float* features, Motion& motion, FootLockState& sta
           const float most = std::max(bound[0], glm::length(before - s.shown));
           const glm::vec2 step = target - s.shown;
           if (glm::length(step) > most) target = s.shown + step * (most / glm::length(step));
-          if (s.planted) s.pin += target - before;  // held on from where it slipped to
         }
+        if (s.planted) s.pin += target - wanted;  // held on from where it slipped to
       }
       s.own_bend_before = own_bend;
       if (s.returning) {
