@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import json
 from pathlib import Path
 
@@ -327,6 +328,15 @@ def test_report_figures_come_from_the_results(tmp_path: Path) -> None:
     # Response: both medians, the all-pairs one a lower bound here.
     assert "| ours | >= 6.00 | 1.00 | 1.00 | 1/3 |" in text
     assert "counts a pair that never responds as 6 s" in text
+    assert (
+        "**Prompt response.** Median >= 6.00 s over all 3 pairs (bar: 1.2 s), 1.00 s over "
+        "the 1 that respond; 2 never do within 6 s" in text
+    )
+    assert "faster than the data does" not in text  # the real clips' 0.62 s is under the bar
+    slow_real = copy.deepcopy(now)
+    slow_real["response"]["evaluator_delay_on_real_seconds"] = run._summary([1.25, 1.5], 6.0)
+    slow_text = report.write_report(slow_real, tmp_path).read_text()
+    assert "takes 1.38 s" in slow_text and "faster than the data does" in slow_text
     # Paper comparison: our ratio to our data next to the paper's (1.04x skate, 0.86x R-prec).
     assert "| foot skate (m/s) | 0.220 | 0.100 | 2.20x | 0.264 | 0.255 | 1.04x |" in text
     assert "| R-precision top-3 | 0.512 | 0.900 | 0.57x | 0.655 | 0.766 | 0.86x |" in text

@@ -634,6 +634,40 @@ def _tried_lines(
     ]
 
 
+RESPONSE_BAR = next(bar for name, _, _, bar, _ in BARS if name.startswith("prompt response"))
+
+
+def _response_reading(resp: dict[str, Any]) -> str:
+    """What limits the all-pairs response median: the evaluator's own delay on real clips,
+    and the pairs that never respond (counted as the rest of the rollout)."""
+    ours, real = resp.get("response_seconds"), resp.get("evaluator_delay_on_real_seconds")
+    if not ours or not real:
+        return ""
+    never = ours["total"] - ours["responded"]
+    line = (
+        f"**Prompt response.** Median {_median(ours)} s over all {ours['total']} pairs "
+        f"(bar: {RESPONSE_BAR:g} s), {_f(ours.get('median_responders'), 2)} s over the "
+        f"{ours['responded']} that respond; {never} never do within "
+        f"{_f(ours.get('never_counted_as_seconds'), 0)} s and count as that. On real clips of "
+        f"A followed by B the same evaluator takes {_median(real)} s (its trailing "
+        f"{resp.get('window_seconds', 2):g} s window has to fill with B)"
+    )
+    if real.get("median") is not None and real["median"] > RESPONSE_BAR:
+        line += (
+            ", longer than the bar: with this measurement the bar asks the model to switch "
+            "faster than the data does"
+        )
+    line += (
+        ". Two things hold the all-pairs median up: the pairs that never respond (a B whose "
+        "motion the evaluator does not prefer to A's: the same shortfall as R-precision), and "
+        "the responders' own delay"
+    )
+    ours_responders, real_responders = ours.get("median_responders"), real.get("median_responders")
+    if ours_responders is not None and real_responders is not None:
+        line += f", {_f(ours_responders - real_responders, 2)} s over the real clips'"
+    return line + "."
+
+
 def _reading_lines(results: dict[str, Any]) -> list[str]:
     """How to read the figures, every figure taken from ``results``."""
     text = results.get("text", {})
@@ -735,6 +769,9 @@ def _reading_lines(results: dict[str, Any]) -> list[str]:
             "tried)."
         )
         bullets.append(line)
+    response = _response_reading(results.get("response", {}))
+    if response:
+        bullets.append(response)
     tasks = results.get("constraints", {}).get("tasks", {})
     if "waypoints" in tasks:
         line = (
