@@ -13,6 +13,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -44,13 +45,22 @@ std::string read_text(const fs::path& path) {
   return s.str();
 }
 
+// One scratch folder per test process, removed when the process exits so
+// repeated runs leave nothing behind in the temp directory.
+struct ScratchDir {
+  fs::path path = fs::temp_directory_path() / ("ardy_test_cli_" + std::to_string(::getpid()));
+  ScratchDir() { fs::create_directories(path); }
+  ~ScratchDir() {
+    std::error_code ignored;
+    fs::remove_all(path, ignored);
+  }
+  ScratchDir(const ScratchDir&) = delete;
+  ScratchDir& operator=(const ScratchDir&) = delete;
+};
+
 fs::path work_dir() {
-  static const fs::path dir = [] {
-    fs::path d = fs::temp_directory_path() / ("ardy_test_cli_" + std::to_string(::getpid()));
-    fs::create_directories(d);
-    return d;
-  }();
-  return dir;
+  static const ScratchDir dir;
+  return dir.path;
 }
 
 std::string quote(const std::string& s) {
