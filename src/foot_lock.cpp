@@ -111,12 +111,15 @@ void FootLocker::apply(const float* features, Motion& motion, FootLockState& sta
       }
       return_room = std::max(0.0f, return_room);
       const glm::vec3 knee_shown_before = s.has_own ? s.knee_shown : knee;
+      const glm::vec3 ankle_shown_before = s.has_own ? s.ankle_shown : ankle;
+      const float own_ankle_step = s.has_own ? glm::length(ankle - s.leg_before[0]) : 0.0f;
       const bool had_own = s.has_own;
       // Where the foot goes if it keeps last frame's offset from the model's
       // path: the leg moves as the model's does.
       const glm::vec2 with_the_body = s.has_own ? own + s.shown - glm::vec2(s.leg_before[0].x, s.leg_before[0].z) : own;
       s.leg_before = leg_now;
-      s.knee_shown = knee;  // unless the IK below moves it
+      s.knee_shown = knee;  // unless the IK below moves them
+      s.ankle_shown = ankle;
       s.has_own = true;
       const float psi = heading_angle(row[layout_.heading.start], row[layout_.heading.start + 1]);
       const glm::vec3 bend_axis = heading_rotation(psi) * glm::vec3(1.0f, 0.0f, 0.0f);
@@ -230,11 +233,54 @@ void FootLocker::apply(const float* features, Motion& motion, FootLockState& sta
         }
         target = own + s.offset;
       }
+      bool corrected = glm::length(target - own) >= 1e-4f;
+      TwoBoneRotations turn = corrected ? solve(target) : TwoBoneRotations{};
+      const auto ankle_after = [&](const TwoBoneRotations& rotations) {
+        return knee_after(rotations) + rotations.lower * (ankle - knee);
+      };
+      // The ankle may move (1 + kFootReturnShare) x the model's own 3D step
+      // plus the floor, or as far as the IK's full answer moves it anyway.
+      const float ankle_bound = std::max((1.0f + kFootReturnShare) * own_ankle_step + kFootReturnFloorStep,
+                                         glm::length(ankle_after(turn) - ankle_shown_before));
+      const auto within_bounds = [&](const TwoBoneRotations& rotations) {
+        return glm::length(knee_after(rotations) - knee_shown_before) <= bound[1] &&
+               glm::length(ankle_after(rotations) - ankle_shown_before) <= ankle_bound;
+      };
+      if (had_own && !constrained && !within_bounds(turn)) {
+        // The last guard against a pop: the IK's correction of the model's
+        // leg changes from last frame's by no more than keeps the knee and
+        // the ankle within their bounds (the largest share of the change
+        // that does, by bisection). Where the IK would swing the leg (a far
+        // target near full extension, a correction dropped at once) the foot
+        // lags its target for a few frames instead.
+        const TwoBoneRotations wanted = turn;
+        const auto share_of_change = [&](float share) {
+          return TwoBoneRotations{slerp_rotation(s.correction.upper, wanted.upper, share),
+                                  slerp_rotation(s.correction.lower, wanted.lower, share)};
+        };
+        float within = 0.0f, beyond = 1.0f;
+        for (int i = 0; i < 10; ++i) {
+          const float share = 0.5f * (within + beyond);
+          (within_bounds(share_of_change(share)) ? within : beyond) = share;
+        }
+        turn = share_of_change(within);
+        corrected = true;
+        // Where the ankle is now shown: a hold slips there, a return goes on from there.
+        const glm::vec3 ankle_shown = ankle_after(turn);
+        target = glm::vec2(ankle_shown.x, ankle_shown.z);
+        if (s.planted) {
+          s.pin = target;
+        } else {
+          s.returning = true;
+          s.offset = target - own;
+        }
+      }
+      s.correction = corrected ? turn : TwoBoneRotations{};
       s.shown = target;
       s.bend_shown = bend(target);
-      if (glm::length(target - own) < 1e-4f) continue;
-      const TwoBoneRotations turn = solve(target);
+      if (!corrected) continue;
       s.knee_shown = knee_after(turn);
+      s.ankle_shown = ankle_after(turn);
       global[joints.hip] = turn.upper * global[joints.hip];
       global[joints.knee] = turn.lower * global[joints.knee];
       moved = true;  // the foot keeps its world rotation: the toes follow it

@@ -15,7 +15,11 @@
 // leg whose joints the window's goals constrain (a keyframe, a foot target)
 // is not held on those frames,
 // and a held foot starts its return kFootReleaseFrames before them, on the
-// model's path by the constrained frame whatever the cap. A skeleton without
+// model's path by the constrained frame whatever the cap. Elsewhere, whatever
+// the IK answers (a hinge knee's side flips where a leg bends sideways), the
+// correction it adds to the model's leg changes from one frame to the next
+// by no more than keeps the knee and the ankle within a return's bounds: the
+// foot lags or slips a little rather than the leg popping. A skeleton without
 // two-bone legs above its contact joints has nothing to lock (available() is
 // false).
 
@@ -28,6 +32,7 @@
 #include <glm/vec3.hpp>
 
 #include "features.hpp"
+#include "kinematics.hpp"
 #include "sampler.hpp"
 #include "skeleton.hpp"
 
@@ -84,6 +89,7 @@ struct FootLockState {
     bool has_own = false;          // leg_before is set
     std::array<glm::vec3, 3> leg_before{};    // the model's ankle, knee and toe last frame
     glm::vec3 knee_shown{0.0f};    // the knee as shown last frame
+    glm::vec3 ankle_shown{0.0f};   // the ankle as shown last frame
     float bend_shown = 0.0f;       // the knee off the hip-ankle line as shown last frame (m)
     float own_bend_before = 0.0f;  // the model's, last frame
     bool has_model = false;        // model_before is set
@@ -91,6 +97,7 @@ struct FootLockState {
     std::array<std::array<float, 3>, 2> model_steps_before{};  // their steps the two frames before
     bool let_go = false;           // pulled too far: not held again until the flags drop or it is back on the path
     size_t held = 0;               // frames held so far (the hold eases in)
+    TwoBoneRotations correction;   // the IK's rotations of hip and knee last frame (identity: none)
   };
   std::array<Leg, 2> legs;
 };
