@@ -42,6 +42,7 @@ BARS: tuple[tuple[str, tuple[str, ...], str, float, str], ...] = (
         " m",
     ),
 )
+RESPONSE_BAR = next(bar for name, _, _, bar, _ in BARS if name.startswith("prompt response"))
 
 
 def _f(value: float | None, digits: int = 3) -> str:
@@ -632,9 +633,6 @@ def _tried_lines(
         "",
         *([notes.strip(), ""] if notes.strip() else []),
     ]
-
-
-RESPONSE_BAR = next(bar for name, _, _, bar, _ in BARS if name.startswith("prompt response"))
 
 
 def _response_reading(resp: dict[str, Any]) -> str:
