@@ -275,7 +275,7 @@ void FootLocker::apply(const float* features, Motion& motion, FootLockState& sta
           s.offset = target - own;
         }
       }
-      s.correction = corrected ? turn : TwoBoneRotations{};
+      s.correction = turn;  // identity where nothing was corrected
       s.shown = target;
       s.bend_shown = bend(target);
       if (!corrected) continue;
