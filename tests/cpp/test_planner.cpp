@@ -832,11 +832,14 @@ TEST_CASE("constraints and keyboard velocity become the windows' goals", "[plann
 }
 
 TEST_CASE("foot locking holds the planted feet of the frames the planner shows", "[planner]") {
-  // The same window (fake clock, same seed) with foot locking on and off.
-  const auto first_window = [](bool foot_lock) {
+  // The same window (fake clock, same seed) with foot locking on and off, over a few seeds:
+  // one draw can drag a flagged foot past the lock's let-go distance (the lock then lets it
+  // go, by design, and its return counts as slide), so the figure is the seeds' total.
+  const auto first_window = [](bool foot_lock, uint64_t seed) {
     PlannerConfig config;
     config.clock = [] { return 0.0; };
     config.foot_lock = foot_lock;
+    config.seed = seed;
     Planner planner(shipped_package(), config);
     REQUIRE(planner.wait_idle());  // the first window, then the prompt's splice: the same frames every run
     planner.set_prompt("a person walks forward");
@@ -845,34 +848,41 @@ TEST_CASE("foot locking holds the planted feet of the frames the planner shows",
     for (int64_t f = 0; f < 40; ++f) REQUIRE(planner.frame_at(f, frames[size_t(f)]));
     return frames;
   };
-  const std::vector<Pose> locked = first_window(true), free = first_window(false);
   const ardy::ModelPackage& p = *shipped_package();
   double slide_locked = 0.0, slide_free = 0.0;
   size_t planted = 0;
-  for (const char* foot : {"Foot_L", "Foot_R"}) {
-    const size_t ankle = p.skeleton().index_of(foot);
-    const size_t flag = foot == std::string("Foot_L") ? 0 : 2;
-    for (size_t f = 5; f < locked.size(); ++f) {
-      bool held = true;  // planted for the last 5 frames: the hold has eased in
-      for (size_t back = 0; back <= 5; ++back) held = held && locked[f - back].contacts[flag] > 0.6f;
-      if (!held) continue;
-      const auto slide = [&](const std::vector<Pose>& w) {
-        const glm::vec3 d = w[f].positions[ankle] - w[f - 1].positions[ankle];
-        return double(std::hypot(d.x, d.z));
-      };
-      slide_locked += slide(locked);
-      slide_free += slide(free);
-      ++planted;
+  for (uint64_t seed = 0; seed < 4; ++seed) {
+    const std::vector<Pose> locked = first_window(true, seed), free = first_window(false, seed);
+    double seed_locked = 0.0, seed_free = 0.0;
+    for (const char* foot : {"Foot_L", "Foot_R"}) {
+      const size_t ankle = p.skeleton().index_of(foot);
+      const size_t flag = foot == std::string("Foot_L") ? 0 : 2;
+      for (size_t f = 5; f < locked.size(); ++f) {
+        bool held = true;  // planted for the last 5 frames: the hold has eased in
+        for (size_t back = 0; back <= 5; ++back) held = held && locked[f - back].contacts[flag] > 0.6f;
+        if (!held) continue;
+        const auto slide = [&](const std::vector<Pose>& w) {
+          const glm::vec3 d = w[f].positions[ankle] - w[f - 1].positions[ankle];
+          return double(std::hypot(d.x, d.z));
+        };
+        seed_locked += slide(locked);
+        seed_free += slide(free);
+        ++planted;
+      }
+      // Hips and arms are untouched.
+      for (size_t f = 0; f < locked.size(); ++f) {
+        CHECK(locked[f].positions[0] == free[f].positions[0]);
+        CHECK(locked[f].positions[p.skeleton().index_of("Hand_R")] == free[f].positions[p.skeleton().index_of("Hand_R")]);
+      }
     }
-    // Hips and arms are untouched.
-    for (size_t f = 0; f < locked.size(); ++f) {
-      CHECK(locked[f].positions[0] == free[f].positions[0]);
-      CHECK(locked[f].positions[p.skeleton().index_of("Hand_R")] == free[f].positions[p.skeleton().index_of("Hand_R")]);
-    }
+    std::cout << "foot lock, seed " << seed << ": ankle slide " << seed_locked << " m locked vs " << seed_free
+              << " m free\n";
+    slide_locked += seed_locked;
+    slide_free += seed_free;
   }
   std::cout << "foot lock: " << planted << " planted frames, ankle slide " << slide_locked << " m locked vs "
             << slide_free << " m free\n";
-  REQUIRE(planted >= 5);
+  REQUIRE(planted >= 20);
   CHECK(slide_locked < 0.3 * slide_free);
 }
 
