@@ -851,6 +851,7 @@ TEST_CASE("foot locking holds the planted feet of the frames the planner shows",
   const ardy::ModelPackage& p = *shipped_package();
   double slide_locked = 0.0, slide_free = 0.0;
   size_t planted = 0;
+  const size_t right_hand = p.skeleton().index_of("Hand_R");
   for (uint64_t seed = 0; seed < 4; ++seed) {
     const std::vector<Pose> locked = first_window(true, seed), free = first_window(false, seed);
     double seed_locked = 0.0, seed_free = 0.0;
@@ -869,11 +870,11 @@ TEST_CASE("foot locking holds the planted feet of the frames the planner shows",
         seed_free += slide(free);
         ++planted;
       }
-      // Hips and arms are untouched.
-      for (size_t f = 0; f < locked.size(); ++f) {
-        CHECK(locked[f].positions[0] == free[f].positions[0]);
-        CHECK(locked[f].positions[p.skeleton().index_of("Hand_R")] == free[f].positions[p.skeleton().index_of("Hand_R")]);
-      }
+    }
+    // Hips and arms are untouched.
+    for (size_t f = 0; f < locked.size(); ++f) {
+      CHECK(locked[f].positions[0] == free[f].positions[0]);
+      CHECK(locked[f].positions[right_hand] == free[f].positions[right_hand]);
     }
     std::cout << "foot lock, seed " << seed << ": ankle slide " << seed_locked << " m locked vs " << seed_free
               << " m free\n";
