@@ -24,7 +24,7 @@ def test_the_shipped_package_gives_back_weights_that_reproduce_its_graphs(tmp_pa
     assert set(errors) == {"denoiser", "decoder", "encoder"}
     assert max(errors.values()) <= 1e-4
     bundle = ModelBundle.from_checkpoint(out)
-    # The base is stage 2; the package is the fine-tuned stage 3: the weights moved.
+    # The base is stage 2; the package is a later, fine-tuned stage: the weights moved.
     base = ModelBundle.from_checkpoint(BASE)
     moved = [
         float((a - b).abs().max())
