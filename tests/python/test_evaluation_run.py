@@ -362,3 +362,8 @@ def test_report_figures_come_from_the_results(tmp_path: Path) -> None:
     assert "| measure | shipped | `a_less` | `b_more` |" in text
     assert "| R-precision top-3, in-bank | 0.512 | 0.400 | 0.450 |" in text
     assert "`a_less`: fewer steps." in text
+    # Numbered candidates stand in the order they were made, not the names' letters.
+    for name in ("stage10", "stage4_decoder", "stage9"):
+        (tmp_path / "tried" / f"{name}.json").write_text(json.dumps(_results(0.30, 0.45, old_resp)))
+    text = report.write_report(now, tmp_path).read_text()
+    assert "| shipped | `a_less` | `b_more` | `stage4_decoder` | `stage9` | `stage10` |" in text

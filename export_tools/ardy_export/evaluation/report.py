@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -797,6 +798,14 @@ def _reading_lines(results: dict[str, Any]) -> list[str]:
     return ["## Reading these numbers", "", *[f"- {b}" for b in bullets], ""]
 
 
+def _natural_key(name: str) -> list[tuple[int, int | str]]:
+    """Sorts names with numbers in them by the numbers' values (``stage4`` before
+    ``stage10``), so candidates stand in the order they were made."""
+    return [
+        (0, int(part)) if part.isdigit() else (1, part) for part in re.split(r"(\d+)", name) if part
+    ]
+
+
 def write_report(
     results: dict[str, Any], out: Path, previous: dict[str, Any] | None = None
 ) -> Path:
@@ -833,7 +842,7 @@ def write_report(
     tried_dir = out / "tried"
     tried = {
         path.stem: json.loads(path.read_text(encoding="utf-8"))
-        for path in sorted(tried_dir.glob("*.json"))
+        for path in sorted(tried_dir.glob("*.json"), key=lambda path: _natural_key(path.stem))
     }
     if tried:
         notes = tried_dir / "README.md"
