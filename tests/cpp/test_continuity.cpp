@@ -20,6 +20,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <functional>
 #include <iostream>
@@ -51,6 +52,14 @@ constexpr double kSuiteSeconds = 120.0;
 #else
 constexpr double kSuiteSeconds = 600.0;
 #endif
+
+// The sampler's seed of the session: 15 in the suite; ARDY_CONTINUITY_SEED
+// plays another draw of the same script (by hand, to compare packages over
+// many sessions rather than one).
+uint64_t session_seed() {
+  const char* text = std::getenv("ARDY_CONTINUITY_SEED");
+  return text && *text ? std::strtoull(text, nullptr, 10) : 15;
+}
 
 double session_seconds() {
   const char* text = std::getenv("ARDY_CONTINUITY_SECONDS");
@@ -117,7 +126,7 @@ ContinuitySession run_session(double seconds, bool real_time) {
   // gets, so the window counts vary by a few between runs, the check not.
   auto ticks = std::make_shared<std::atomic<int>>(0);
   if (!real_time) config.clock = [ticks] { return 0.15 * (*ticks)++; };
-  config.seed = 15;
+  config.seed = session_seed();
   Planner planner(shipped_package(), config);
   REQUIRE(planner.wait_idle(600.0));
 
@@ -175,9 +184,9 @@ ContinuitySession run_session(double seconds, bool real_time) {
                                   (w.prompt ? ", \"" + *w.prompt + "\"" : "") + ")"});
   }
   const ardy::PlannerStats stats = planner.stats();
-  std::cout << "continuity session: " << seconds << " s, " << next_step << " script steps, "
-            << stats.windows_published << " windows (" << stats.splices << " splices, " << stats.late_windows
-            << " late), underrun " << stats.underrun_seconds << " s\n";
+  std::cout << "continuity session: seed " << session_seed() << ", " << seconds << " s, " << next_step
+            << " script steps, " << stats.windows_published << " windows (" << stats.splices << " splices, "
+            << stats.late_windows << " late), underrun " << stats.underrun_seconds << " s\n";
   CHECK((real_time || stats.underrun_seconds == 0.0));  // in real time a hold shows as a standstill
   CHECK(planner.take_errors().empty());
   return session;

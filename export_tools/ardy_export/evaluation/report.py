@@ -787,8 +787,10 @@ def _reading_lines(results: dict[str, Any]) -> list[str]:
             "scale for the model's own waypoints (packages tried): sparse waypoints drawn "
             "more often in training, a tripled window-goal term and stronger constraint "
             "guidance; each moved them by 0.02 to 0.06 m, and the last two made the feet "
-            "slide more on a steered path. What would close it: a larger denoiser trained "
-            "far longer (GPU time)."
+            "slide more on a steered path. The tripled goal term, then more contact-aware "
+            "training, reached the bar (`stage12`), but the suite's continuity session fails "
+            "with it. What would close it with room: a larger denoiser trained far longer "
+            "(GPU time)."
         )
         bullets.append(line)
     ablation = "**Ablations** (small models, one CPU budget each): see the table below."
