@@ -425,6 +425,10 @@ def _bars_lines(results: dict[str, Any]) -> list[str]:
             continue
         met = value <= bar if kind == "max" else value >= bar
         digits = 1 if unit == " deg" else 2 if unit in ("x", " s") else 3
+        # A figure that rounds onto its bar is shown with a digit more, so the verdict
+        # beside it can be read off it (1.604x missed, not 1.60x).
+        while digits < 4 and round(value, digits) == bar and value != bar:
+            digits += 1
         shown = f"{value:.{digits}f}{unit}"
         rows.append(
             [
@@ -728,7 +732,10 @@ def _reading_lines(results: dict[str, Any]) -> list[str]:
         bullets.append(line + ".")
         ratio = _ratio(ours["foot_skate"], data["foot_skate"])
         met = ratio is not None and ratio <= SKATE_RATIO_BAR
-        line = f"**Foot skate is {_x(ratio)} the test clips'** (bar: {SKATE_RATIO_BAR}x), " + (
+        shown = _x(ratio)
+        if ratio is not None and shown == f"{SKATE_RATIO_BAR:.2f}x" and ratio != SKATE_RATIO_BAR:
+            shown = f"{ratio:.3f}x"  # rounded onto the bar: a digit more, to read the verdict off
+        line = f"**Foot skate is {shown} the test clips'** (bar: {SKATE_RATIO_BAR}x), " + (
             "met." if met else "missed."
         )
         if raw:
