@@ -77,6 +77,14 @@ def _x(value: float | None, digits: int = 2) -> str:
     return "n/a" if value is None else f"{value:.{digits}f}x"
 
 
+def _digits_against(value: float, bar: float, digits: int) -> int:
+    """``digits``, or more where the figure would round onto its bar, so the verdict
+    beside it can be read off it (1.604x missed, not 1.60x)."""
+    while digits < 4 and round(value, digits) == bar and value != bar:
+        digits += 1
+    return digits
+
+
 DATASET_ROW = "dataset (test split)"
 SHIPPED_ROW = "ours, 4 steps"
 UNFILTERED_ROW = "ours, 4 steps, unfiltered"
@@ -424,11 +432,9 @@ def _bars_lines(results: dict[str, Any]) -> list[str]:
         if value is None:
             continue
         met = value <= bar if kind == "max" else value >= bar
-        digits = 1 if unit == " deg" else 2 if unit in ("x", " s") else 3
-        # A figure that rounds onto its bar is shown with a digit more, so the verdict
-        # beside it can be read off it (1.604x missed, not 1.60x).
-        while digits < 4 and round(value, digits) == bar and value != bar:
-            digits += 1
+        digits = _digits_against(
+            value, bar, 1 if unit == " deg" else 2 if unit in ("x", " s") else 3
+        )
         shown = f"{value:.{digits}f}{unit}"
         rows.append(
             [
@@ -732,9 +738,7 @@ def _reading_lines(results: dict[str, Any]) -> list[str]:
         bullets.append(line + ".")
         ratio = _ratio(ours["foot_skate"], data["foot_skate"])
         met = ratio is not None and ratio <= SKATE_RATIO_BAR
-        shown = _x(ratio)
-        if ratio is not None and shown == f"{SKATE_RATIO_BAR:.2f}x" and ratio != SKATE_RATIO_BAR:
-            shown = f"{ratio:.3f}x"  # rounded onto the bar: a digit more, to read the verdict off
+        shown = _x(ratio, 2 if ratio is None else _digits_against(ratio, SKATE_RATIO_BAR, 2))
         line = f"**Foot skate is {shown} the test clips'** (bar: {SKATE_RATIO_BAR}x), " + (
             "met." if met else "missed."
         )
