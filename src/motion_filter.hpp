@@ -23,9 +23,9 @@ namespace ardy {
 // extrapolation) and the difference to the filtered frames fades out over
 // 2 * radius frames, so a window joins the frames shown before it without a
 // step. Every feature but the foot contacts is filtered; the heading's
-// (cos, sin) is renormalized, and the 6D rotations are smoothed as
-// rotations (each frame's made orthonormal first, the result orthonormal
-// again from each joint's steadier axis). sigma_frames <= 0 copies.
+// (cos, sin) is renormalized, and the 6D rotations are smoothed as unit
+// quaternions kept in one hemisphere from frame to frame (written back as
+// the columns of their rotations). sigma_frames <= 0 copies.
 std::vector<float> smooth_features(const FeatureLayout& layout, const float* context, size_t context_frames,
                                    const float* frames, size_t count, double sigma_frames);
 

@@ -13,7 +13,9 @@
 // several times); ARDY_CONTINUITY_SECONDS sets the length by hand, and
 // ARDY_CONTINUITY_REAL_TIME=1 paces it by the wall clock like a game (real
 // latencies and late windows; not for the suite: it takes as long as it
-// plays). The same check through the C ABI is test_continuity_c_api.cpp.
+// plays). ARDY_CONTINUITY_SEED plays another draw of the script (the same
+// session every run), ARDY_CONTINUITY_TRACE=1 prints the worst case's joint
+// step by step. The same check through the C ABI is test_continuity_c_api.cpp.
 
 #include <catch_amalgamated.hpp>
 
@@ -30,6 +32,7 @@
 #include <thread>
 #include <vector>
 
+#include "motion_filter.hpp"
 #include "planner.hpp"
 #include "support/continuity.hpp"
 #include "support/goldens.hpp"
@@ -68,47 +71,50 @@ double session_seconds() {
 }
 
 // One step of the script: what the player does, and how long until the next.
+// A step of several commands gives them one by one, each applied before the
+// next (given at once, the worker may start a window on the first or take
+// them together, which changes every window after it from run to run).
+using Action = std::function<void(Planner&, const Pose& now)>;
 struct ScriptStep {
   double hold_seconds;
   std::string what;
-  std::function<void(Planner&, const Pose& now)> act;
+  std::vector<Action> actions;
 };
 
 std::vector<ScriptStep> game_script() {
   const auto prompt = [](const char* text) {
-    return [text](Planner& p, const Pose&) { p.set_prompt(text); };
+    return std::vector<Action>{[text](Planner& p, const Pose&) { p.set_prompt(text); }};
+  };
+  const auto key = [](double vx, double vz) {
+    return std::vector<Action>{[vx, vz](Planner& p, const Pose&) { p.set_target_velocity(vx, vz); }};
   };
   return {
       {3.0, "prompt: walk", prompt("a person walks forward")},
       {3.5, "prompt: run (walk -> run)", prompt("a person runs forward")},
       {3.0, "prompt: wave (run -> wave)", prompt("a person waves with the right hand")},
       {2.5, "prompt: run", prompt("a person runs forward")},
-      {3.0, "key: velocity (2, 1)", [](Planner& p, const Pose&) { p.set_target_velocity(2.0, 1.0); }},
-      {2.5, "key: velocity (-1.5, 0.5)", [](Planner& p, const Pose&) { p.set_target_velocity(-1.5, 0.5); }},
+      {3.0, "key: velocity (2, 1)", key(2.0, 1.0)},
+      {2.5, "key: velocity (-1.5, 0.5)", key(-1.5, 0.5)},
       {3.0, "prompt: wave (run -> wave, keys held)", prompt("a person waves with the right hand")},
-      {2.0, "key: released", [](Planner& p, const Pose&) { p.clear_target_velocity(); }},
+      {2.0, "key: released", {[](Planner& p, const Pose&) { p.clear_target_velocity(); }}},
       {3.5, "prompt: walk + waypoint 3 m ahead in 3 s",
-       [](Planner& p, const Pose& now) {
-         p.set_prompt("a person walks forward");
-         p.add_waypoint(now.time + 3.0, now.root_position.x + 2.0, now.root_position.z + 2.0);
-       }},
+       {[](Planner& p, const Pose&) { p.set_prompt("a person walks forward"); },
+        [](Planner& p, const Pose& now) {
+          p.add_waypoint(now.time + 3.0, now.root_position.x + 2.0, now.root_position.z + 2.0);
+        }}},
       {2.5, "waypoint 2 m aside in 2 s",
-       [](Planner& p, const Pose& now) {
+       {[](Planner& p, const Pose& now) {
          p.add_waypoint(now.time + 2.0, now.root_position.x - 2.0, now.root_position.z + 0.5);
-       }},
-      {3.0, "goals cleared", [](Planner& p, const Pose&) { p.clear_constraints(); }},
+       }}},
+      {3.0, "goals cleared", {[](Planner& p, const Pose&) { p.clear_constraints(); }}},
       {3.0, "prompt: jog (walk -> run)", prompt("a person jogs in a circle")},
       {2.5, "prompt: stand still", prompt("a person stands still")},
       {3.0, "prompt: run + key (0, 3)",
-       [](Planner& p, const Pose&) {
-         p.set_prompt("a person runs forward");
-         p.set_target_velocity(0.0, 3.0);
-       }},
+       {[](Planner& p, const Pose&) { p.set_prompt("a person runs forward"); },
+        [](Planner& p, const Pose&) { p.set_target_velocity(0.0, 3.0); }}},
       {2.0, "prompt: wave (run -> wave)",
-       [](Planner& p, const Pose&) {
-         p.clear_target_velocity();
-         p.set_prompt("a person waves with the right hand");
-       }},
+       {[](Planner& p, const Pose&) { p.clear_target_velocity(); },
+        [](Planner& p, const Pose&) { p.set_prompt("a person waves with the right hand"); }}},
       {3.0, "prompt: jump", prompt("a person jumps forward")},
   };
 }
@@ -121,9 +127,8 @@ ContinuitySession run_session(double seconds, bool real_time) {
   PlannerConfig config;
   // Latency: a fixed 0.15 s per window on a fake clock (what a game sees on
   // two cores), so B is the same every run; the clock is read at a window's
-  // start and end (on the worker only). A step with two commands may get one
-  // window or two (the worker may start on the first): both are what a game
-  // gets, so the window counts vary by a few between runs, the check not.
+  // start and end (on the worker only). With the commands of a step given
+  // one by one (ScriptStep), a seed plays the same session every run.
   auto ticks = std::make_shared<std::atomic<int>>(0);
   if (!real_time) config.clock = [ticks] { return 0.15 * (*ticks)++; };
   config.seed = session_seed();
@@ -167,9 +172,11 @@ ContinuitySession run_session(double seconds, bool real_time) {
     }
     if (t >= next_step_time) {
       const ScriptStep& step = script[next_step % script.size()];
-      step.act(planner, pose);
-      // Applied at this playhead, not the next (the same splices every run).
-      if (!real_time) REQUIRE(planner.wait_idle(600.0));
+      for (const Action& act : step.actions) {
+        act(planner, pose);
+        // Applied at this playhead, not the next (the same splices every run).
+        if (!real_time) REQUIRE(planner.wait_idle(600.0));
+      }
       session.events.push_back({t, step.what});
       next_step_time = t + step.hold_seconds;
       ++next_step;
@@ -177,7 +184,11 @@ ContinuitySession run_session(double seconds, bool real_time) {
     if (n % 60 == 0) note_windows();
   }
   note_windows();
+  const double sigma =
+      planner.config().output_smoothing_frames.value_or(planner.package().sampling_defaults().output_smoothing_frames);
+  session.join_fade_frames = 2 * static_cast<long long>(ardy::smoothing_radius(sigma));
   for (const auto& [id, w] : windows) {
+    if (session.join_fade_frames > 0) session.window_starts.push_back(w.start_frame);
     session.events.push_back({double(w.start_frame) / session.model_fps,
                               std::string(w.spliced ? "splice" : "appended window") + " #" + std::to_string(id) +
                                   " (B " + std::to_string(w.buffer_frames) + " frames" +
@@ -200,6 +211,12 @@ TEST_CASE("no joint the planner shows moves faster than the model's own motion a
   const ContinuitySession session = run_session(seconds, real_time && *real_time && *real_time != '0');
   const ardy_test::ContinuityReport report = ardy_test::check_continuity(session);
   std::cout << "continuity (C++ planner): " << report.text;
+  // ARDY_CONTINUITY_TRACE=1 prints the worst case's joint step by step (by hand).
+  if (const char* trace = std::getenv("ARDY_CONTINUITY_TRACE"); trace && *trace && *trace != '0' &&
+      !report.worst.empty()) {
+    const ardy_test::SpeedCase& worst = report.worst.front();
+    std::cout << ardy_test::trace_joint(session, worst.joint, double(worst.step) / session.shown_rate);
+  }
   CHECK(double(report.steps) >= 0.95 * seconds * ardy_test::kShownRate);
   CHECK(report.failures == 0);
   CHECK(report.fastest.shown <= ardy_test::kMaxJointSpeed);

@@ -17,6 +17,13 @@
 // its join and the foot lock's ease-in/out shift motion by a few frames;
 // a pop (a joint jumping to where the model has it) is fast compared to
 // everything the model does around it, which this still catches.
+// A window's join: where the model's new window starts away from the frames
+// shown before (its own step at the seam, once 0.84 m at a toe in one frame
+// as a leg turned over), the output filter starts where the shown frames
+// were going and fades the difference out over its 2 radius frames
+// (motion_filter.hpp), so within that fade a step is also held to the
+// seam's raw speed shared over the fade's frames (window_starts,
+// join_fade_frames).
 // The floor: a joint the model holds still has a raw speed near 0, while a
 // planted foot the lock held (at most kFootLockMaxPull = 0.25 m from the
 // model's path) legitimately returns to the model's path after it lifts, at
@@ -40,6 +47,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -67,6 +75,11 @@ struct ContinuitySession {
   std::vector<std::vector<glm::vec3>> shown;  // [step][joint]: the pose sampled at step / shown_rate
   std::vector<std::vector<glm::vec3>> raw;    // [model frame][joint]: the model's own frames (same times)
   std::vector<ContinuityEvent> events;        // commands and windows, for the report
+  // The output filter's joins (empty: the filter is off): the first model
+  // frame of each window shown, and over how many frames a join fades the
+  // step between the shown frames and the window's out.
+  std::vector<long long> window_starts;
+  long long join_fade_frames = 0;
 };
 
 struct SpeedCase {
@@ -114,6 +127,31 @@ inline std::string describe_moment(const ContinuitySession& s, double time, size
   return out.str();
 }
 
+// One joint around `time` (+-0.5 s), step by step at the shown rate, for
+// tracing a failure by hand: the shown position and speed, the model's own
+// (interpolated as shown) position and speed, and the offset between them.
+inline std::string trace_joint(const ContinuitySession& s, size_t joint, double time) {
+  const auto raw_at = [&](size_t step) {
+    const double f = double(step) / s.shown_rate * s.model_fps;
+    const auto k = std::min(static_cast<size_t>(std::floor(f)), s.raw.size() - 2);
+    const float a = static_cast<float>(f - double(k));
+    return s.raw[k][joint] + (s.raw[k + 1][joint] - s.raw[k][joint]) * a;
+  };
+  std::ostringstream out;
+  out << s.joint_names[joint] << " around " << time
+      << " s: time, shown (x y z), shown speed, raw (x y z), raw speed, offset\n";
+  const auto first = static_cast<size_t>(std::max(1.0, std::floor((time - 0.5) * s.shown_rate)));
+  const auto last = static_cast<size_t>(std::ceil((time + 0.5) * s.shown_rate));
+  for (size_t step = first; step <= last && step < s.shown.size() && s.raw.size() >= 2; ++step) {
+    const glm::vec3 shown = s.shown[step][joint], raw = raw_at(step);
+    out << "  " << double(step) / s.shown_rate << " (" << shown.x << " " << shown.y << " " << shown.z << ") "
+        << glm::length(shown - s.shown[step - 1][joint]) * s.shown_rate << " (" << raw.x << " " << raw.y << " "
+        << raw.z << ") " << glm::length(raw - raw_at(step - 1)) * s.shown_rate << " " << glm::length(shown - raw)
+        << "\n";
+  }
+  return out.str();
+}
+
 inline ContinuityReport check_continuity(const ContinuitySession& s, size_t worst_count = 10) {
   ContinuityReport report;
   report.steps = s.shown.empty() ? 0 : s.shown.size() - 1;
@@ -123,6 +161,12 @@ inline ContinuityReport check_continuity(const ContinuitySession& s, size_t wors
     const auto k0 = static_cast<long long>(std::floor(t0 * s.model_fps + 1e-9));
     const auto k1 = static_cast<long long>(std::ceil(t1 * s.model_fps - 1e-9)) - 1;
     if (k1 + kRawSpanFrames + 1 >= static_cast<long long>(s.raw.size())) break;  // raw frames end
+    // Within a join's fade, the model's step into the window (its first frame
+    // against the frame before) is spread over the fade: its share per frame adds.
+    std::optional<long long> joined;
+    for (const long long start : s.window_starts) {
+      if (start > 0 && start <= k0 && k1 < start + s.join_fade_frames - 1) joined = start;
+    }
     SpeedCase step_worst;
     for (size_t j = 0; j < s.joint_names.size(); ++j) {
       SpeedCase c;
@@ -130,6 +174,7 @@ inline ContinuityReport check_continuity(const ContinuitySession& s, size_t wors
       c.joint = j;
       c.shown = double(glm::length(s.shown[n][j] - s.shown[n - 1][j])) * s.shown_rate;
       for (long long k = k0 - kRawSpanFrames; k <= k1 + kRawSpanFrames; ++k) c.raw = std::max(c.raw, raw_segment_speed(s, k, j));
+      if (joined) c.raw += raw_segment_speed(s, *joined - 1, j) / double(s.join_fade_frames - 1);
       if (c.excess() > 1.0) ++report.failures;
       if (c.shown > report.fastest.shown) report.fastest = c;
       if (c.raw >= 1.0) report.worst_ratio = std::max(report.worst_ratio, c.shown / c.raw);
