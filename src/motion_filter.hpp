@@ -3,9 +3,9 @@
 // The output filter: a Gaussian over time on decoded world features, applied
 // to the frames the runtime shows (never to what the model reads back as
 // history). The tokenizer decodes 4-frame patches whose seams make the raw
-// motion jerky (on the default model, jerk across a patch seam is 3.1x that
-// inside a patch, and 6x the dataset's overall); sigma = 1.5 frames brings the
-// jerk to the dataset's level (numbers in docs/evaluation).
+// motion jerky (on the default model, jerk across a patch seam is 3.3x that
+// inside a patch, and 2.4x the dataset's overall); the shipped sigma, 1 frame,
+// brings the jerk under the dataset's (numbers in docs/evaluation).
 
 #include <cstddef>
 #include <vector>

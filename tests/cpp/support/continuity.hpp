@@ -12,8 +12,9 @@
 // linearly between them, so a shown step's speed is the speed of the shown
 // model-frame segments it crosses. The raw speed it is held to is the
 // fastest raw segment of the same joint within kRawSpanFrames model frames
-// either side of the step: the output filter is a Gaussian (sigma 1.5
-// frames) whose speed is an average of raw speeds within its radius, and
+// either side of the step: the output filter is a Gaussian (sigma 1 frame
+// in the shipped package, 1.5 before) whose speed is an average of raw
+// speeds within its radius, and
 // its join and the foot lock's ease-in/out shift motion by a few frames;
 // a pop (a joint jumping to where the model has it) is fast compared to
 // everything the model does around it, which this still catches.
