@@ -139,6 +139,7 @@ std::vector<float> smooth_features(const FeatureLayout& layout, const float* con
   // before's result, so that the linear join below sees one rotation path.
   WorkingRows filtered = now;
   std::vector<double> sum(width), reflected(width);
+  std::vector<float> point(width);  // a reflected row (reused: this runs per window)
   for (size_t f = 0; f < count; ++f) {
     const float* center = now.row(f);
     std::fill(sum.begin(), sum.end(), 0.0);
@@ -154,7 +155,7 @@ std::vector<float> smooth_features(const FeatureLayout& layout, const float* con
         std::fill(reflected.begin(), reflected.end(), 0.0);
         add(reflected, end, end, 2.0);
         add(reflected, end, row(2 * last - i), -1.0);
-        const std::vector<float> point(reflected.begin(), reflected.end());
+        std::copy(reflected.begin(), reflected.end(), point.begin());
         add(sum, center, point.data(), weights[k]);
       }
       total += weights[k];
