@@ -367,3 +367,22 @@ def test_report_figures_come_from_the_results(tmp_path: Path) -> None:
         (tmp_path / "tried" / f"{name}.json").write_text(json.dumps(_results(0.30, 0.45, old_resp)))
     text = report.write_report(now, tmp_path).read_text()
     assert "| shipped | `a_less` | `b_more` | `stage4_decoder` | `stage9` | `stage10` |" in text
+
+
+def test_report_gives_r_precision_by_content(tmp_path: Path) -> None:
+    now = _results(0.22, 0.5, run._summary([1.0], 6.0), train_clips_by_content={"d1/bow": 13})
+    shipped = now["text"]["rows"]["ours, 4 steps"]
+    shipped["r_precision_top3_by_label"] = {"d1/bow/happy": 0.25, "d1/bow/normal": 0.5}
+    shipped["r_precision_top3_by_label"]["d2/walk/sad"] = 1.0
+    para = now["text"]["paraphrase_rows"]["ours, 4 steps"]
+    para["r_precision_top3_by_label"] = {"d1/bow/happy": 0.0, "d1/bow/normal": 0.5}
+    text = report.write_report(now, tmp_path).read_text()
+    assert "| `d1/bow` | happy, normal | 13 | 0.38 | 0.25 |" in text
+    assert "| `d2/walk` | sad | n/a | 1.00 | n/a |" in text
+    # Results from before the per-label figures have no such table.
+    assert (
+        "R-precision by content"
+        not in report.write_report(
+            _results(0.2, 0.5, run._summary([1.0], 6.0)), tmp_path
+        ).read_text()
+    )

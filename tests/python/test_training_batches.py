@@ -13,6 +13,7 @@ from ardy_export.training.batches import (
     WindowSamplingConfig,
     denoiser_batch,
     rotate_yaw_batch,
+    sequence_weights,
     split_long,
     tokenizer_batch,
 )
@@ -98,6 +99,9 @@ def test_denoiser_windows(seqs: list[TrainSequence]) -> None:
     fm = b["future_mask"].numpy()
     fgm = b["future_goal_mask"].numpy()
     assert np.array_equal(fm > 0, fgm.any(axis=2))
+    balanced = WindowSamplingConfig(content_balance=1.0)
+    b = denoiser_batch(enc, rng, 8, cfg, MEAN, STD, bank, only_paths, balanced)
+    assert b["x0"].shape == (8, 10, cfg.token_dim)
 
 
 @pytest.mark.parametrize("pattern", PATTERNS)
@@ -145,3 +149,20 @@ def test_prefetcher_keeps_the_batch_order() -> None:
         assert np.array_equal(next(inline)["x"], next(ahead)["x"])
     ahead.close()
     assert ahead.thread is not None and not ahead.thread.is_alive()
+
+
+def test_content_balanced_draw() -> None:
+    walk = [(0, 80, ("d2", "walk", "normal"))]
+    bow = [(0, 80, ("d1", "bow", "happy"))]
+    stitched = [(0, 40, ("d2", "walk", "normal")), (40, 80, ("d1", "bow", "sad"))]
+    segments = [walk] * 30 + [bow] * 3 + [stitched] * 7
+    alike = sequence_weights(segments, 0.0)
+    assert np.allclose(alike, 1 / 40)
+    balanced = sequence_weights(segments, 1.0)
+    assert balanced.sum() == pytest.approx(1.0)
+    # every content alike among the single-label sequences, which keep their 33 of 40
+    assert balanced[:30].sum() == pytest.approx(balanced[30:33].sum())
+    assert balanced[:33].sum() == pytest.approx(33 / 40)
+    assert np.allclose(balanced[33:], 1 / 40)
+    half = sequence_weights(segments, 0.5)
+    assert half[:30].sum() / half[30:33].sum() == pytest.approx(np.sqrt(30 / 3))

@@ -71,15 +71,15 @@ def _unit(x: np.ndarray) -> np.ndarray:
     return x / np.maximum(np.linalg.norm(x, axis=-1, keepdims=True), 1e-12)
 
 
-def r_precision(
+def r_precision_hits(
     motion_emb: np.ndarray,
     text_emb: np.ndarray,
     top_k: int = 3,
     pool: int = 32,
     seed: int = 0,
     label_ids: Sequence[int] | np.ndarray | None = None,
-) -> float:
-    """R-precision (Guo et al. 2022): the fraction of motions whose own text (row i of
+) -> np.ndarray:
+    """R-precision (Guo et al. 2022) per motion: whether the motion's own text (row i of
     ``text_emb`` belongs to row i of ``motion_emb``) ranks in the ``top_k`` by cosine
     similarity among a pool of ``pool`` texts: its own and ``pool - 1`` others drawn at random.
 
@@ -102,7 +102,7 @@ def r_precision(
         if len(unique) < pool:
             raise ValueError(f"r_precision: {len(unique)} labels cannot fill a pool of {pool}")
         members = {label: np.flatnonzero(labels == label) for label in unique}
-    hits = 0
+    hits = np.zeros(count, bool)
     for i in range(count):
         if label_ids is None:
             others = rng.choice(count - 1, pool - 1, replace=False)
@@ -111,8 +111,21 @@ def r_precision(
             chosen = rng.choice(unique[unique != labels[i]], pool - 1, replace=False)
             others = np.array([rng.choice(members[label]) for label in chosen])
         own = motion[i] @ text[i]
-        hits += int(np.sum(text[others] @ motion[i] > own) < top_k)
-    return hits / count if count else float("nan")
+        hits[i] = np.sum(text[others] @ motion[i] > own) < top_k
+    return hits
+
+
+def r_precision(
+    motion_emb: np.ndarray,
+    text_emb: np.ndarray,
+    top_k: int = 3,
+    pool: int = 32,
+    seed: int = 0,
+    label_ids: Sequence[int] | np.ndarray | None = None,
+) -> float:
+    """The fraction of ``r_precision_hits``."""
+    hits = r_precision_hits(motion_emb, text_emb, top_k, pool, seed, label_ids)
+    return float(hits.mean()) if hits.size else float("nan")
 
 
 def r_precision_chance(top_k: int, pool: int) -> float:

@@ -177,6 +177,7 @@ def _text_lines(text: dict[str, Any]) -> list[str]:
         ),
         "",
     ]
+    lines += _content_lines(text)
     paraphrase = text.get("paraphrase_rows") or {}
     if paraphrase:
         para_rows = []
@@ -219,6 +220,54 @@ def _text_lines(text: dict[str, Any]) -> list[str]:
             "",
         ]
     return lines
+
+
+def _content_lines(text: dict[str, Any]) -> list[str]:
+    """R-precision of the shipped rows per content of the test labels, beside how many
+    training clips of that content the model learned it from."""
+    own = _g(text, "rows", SHIPPED_ROW, "r_precision_top3_by_label")
+    if not own:
+        return []
+    para = _g(text, "paraphrase_rows", SHIPPED_ROW, "r_precision_top3_by_label") or {}
+    clips = text.get("train_clips_by_content", {})
+    contents: dict[str, list[str]] = {}
+    for label in own:
+        dataset, content, style = label.split("/")
+        contents.setdefault(f"{dataset}/{content}", []).append(style)
+
+    def mean_of(values: dict[str, float], content: str) -> float | None:
+        found = [v for label, v in values.items() if label.startswith(content + "/")]
+        return float(np.mean(found)) if found else None
+
+    rows = [
+        [
+            f"`{content}`",
+            ", ".join(styles),
+            str(clips.get(content, "n/a")),
+            _f(mean_of(own, content), 2),
+            _f(mean_of(para, content), 2),
+        ]
+        for content, styles in contents.items()
+    ]
+    return [
+        f"### R-precision by content ({SHIPPED_ROW})",
+        "",
+        "The shipped row's R-precision over each content's test labels (their styles are "
+        "held out; the content is not), beside the training clips of that content (before "
+        "mirroring).",
+        "",
+        *_table(
+            [
+                "content",
+                "test styles",
+                "training clips",
+                "R-precision, in-bank",
+                "R-precision, paraphrases",
+            ],
+            rows,
+        ),
+        "",
+    ]
 
 
 def _constraint_lines(con: dict[str, Any]) -> list[str]:

@@ -104,6 +104,7 @@ class Context:
             np.stack([self.text_embedding(g, s) for g, s in zip(groups, sentences, strict=True)])
         )
         ids = [self.groups.index(g) for g in groups]
+        hits = metrics.r_precision_hits(emb, text, 3, self.pool, seed=0, label_ids=ids)
         by_label: dict[Group, list[np.ndarray]] = {}
         for p, g in zip(positions, groups, strict=True):
             by_label.setdefault(g, []).append(p)
@@ -113,7 +114,11 @@ class Context:
             "foot_skate": float(
                 np.nanmean([metrics.foot_skate(v, self.feet, self.fps) for v in by_label.values()])
             ),
-            "r_precision_top3": metrics.r_precision(emb, text, 3, self.pool, seed=0, label_ids=ids),
+            "r_precision_top3": float(hits.mean()),
+            "r_precision_top3_by_label": {
+                "/".join(label): float(hits[[g == label for g in groups]].mean())
+                for label in by_label
+            },
             "fid": metrics.fid(self.real_embeddings, emb),
             "fid_balanced": metrics.fid(self.real_embeddings[self.balanced_real], emb),
             "jerk": float(np.mean([metrics.mean_jerk(v, self.fps) for v in by_label.values()])),
@@ -247,6 +252,7 @@ def text_section(ctx: Context) -> dict[str, Any]:
         "real_labels": len(np.unique(ctx.real_label_ids)),
         "balanced_per_label": ctx.per_label,
         "patch_frames": L.PATCH,
+        "train_clips_by_content": _train_clips_by_content(Path(ctx.config["data"])),
     }
 
 
@@ -588,6 +594,20 @@ def _train_hours(data: Path) -> float | None:
     doc = json.loads(index.read_text(encoding="utf-8"))
     frames = sum(int(c.get("frames", 0)) for c in doc["clips"] if c.get("split") == "train")
     return frames / float(doc.get("fps", L.FPS)) / 3600.0
+
+
+def _train_clips_by_content(data: Path) -> dict[str, int]:
+    """Training clips of each ``dataset/content`` (before mirroring; empty if unknown): how
+    much of each content the model was trained on, beside its test labels' R-precision."""
+    index = data / "index.json"
+    if not index.is_file():
+        return {}
+    counts: dict[str, int] = {}
+    for clip in json.loads(index.read_text(encoding="utf-8"))["clips"]:
+        if clip.get("split") == "train":
+            key = f"{clip['dataset']}/{clip['content']}"
+            counts[key] = counts.get(key, 0) + 1
+    return dict(sorted(counts.items()))
 
 
 def _rounded(value: Any) -> Any:  # noqa: ANN401 (JSON values)

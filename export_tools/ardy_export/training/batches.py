@@ -140,6 +140,34 @@ class WindowSamplingConfig:
     text_drop: float = 0.1
     constraint_drop: float = 0.1
     p_full_history: float = 0.5
+    # Exponent a of the content-balanced draw (``sequence_weights``): 0 draws every
+    # sequence alike, 1 every (dataset, content) alike.
+    content_balance: float = 0.0
+
+
+def sequence_weights(
+    segments: Sequence[Sequence[tuple[int, int, LabelKey]]], exponent: float
+) -> np.ndarray:
+    """Probabilities of drawing each sequence (given by its labelled segments) for a window.
+
+    A single-label sequence weighs ``n ** -exponent``, ``n`` the number of single-label
+    sequences of its (dataset, content): the data holds 13 bows against 317 raised left
+    hands, and with every sequence alike the model saw a bow in 1 window of 200. Sequences
+    of several labels (stitched transitions) keep their share of the draw."""
+    single = [len(segs) == 1 for segs in segments]
+    contents = [segs[0][2][:2] if one else None for segs, one in zip(segments, single, strict=True)]
+    counts: dict[object, int] = {}
+    for content in contents:
+        if content is not None:
+            counts[content] = counts.get(content, 0) + 1
+    weights = np.array(
+        [1.0 if c is None else float(counts[c]) ** -exponent for c in contents], np.float64
+    )
+    plain = np.array(single)
+    if plain.any():
+        # Single-label sequences together keep the share they have when drawn alike.
+        weights[plain] *= plain.sum() / weights[plain].sum()
+    return weights / weights.sum()
 
 
 def _tokens_from_frames(frames: np.ndarray, latent: np.ndarray, patch: int) -> np.ndarray:
@@ -165,9 +193,19 @@ def denoiser_batch(
     usable = [e for e in encoded if e.latent.shape[0] >= c]
     if not usable:
         raise ValueError(f"no encoded sequence has the {c} tokens of a window")
+    # Drawn up front when balanced; one draw per window otherwise (as runs before had it).
+    picks = (
+        rng.choice(
+            len(usable),
+            size=batch_size,
+            p=sequence_weights([e.segments for e in usable], windows.content_balance),
+        )
+        if windows.content_balance
+        else None
+    )
     samples = []
-    for _ in range(batch_size):
-        e = usable[int(rng.integers(0, len(usable)))]
+    for i in range(batch_size):
+        e = usable[int(rng.integers(0, len(usable))) if picks is None else int(picks[i])]
         t_tok = e.latent.shape[0]
         s = int(rng.integers(0, t_tok - c + 1))
         h_avail = min(s, cfg.max_history_tokens)
