@@ -379,6 +379,10 @@ def test_report_gives_r_precision_by_content(tmp_path: Path) -> None:
     text = report.write_report(now, tmp_path).read_text()
     assert "| `d1/bow` | happy, normal | 13 | 0.38 | 0.25 |" in text
     assert "| `d2/walk` | sad | n/a | 1.00 | n/a |" in text
+    assert (
+        "By dataset, R-precision is 0.38 over the 2 d1 labels (13 training clips per content), "
+        "1.00 over the 1 d2 labels (R-precision by content)" in text
+    )
     # Results from before the per-label figures have no such table.
     assert (
         "R-precision by content"
