@@ -110,6 +110,7 @@ def test_constraint_patterns_touch_their_features(pattern: str) -> None:
     rng = np.random.default_rng(3)
     allowed = {
         "waypoints": [0, 2, 3, 4],
+        "paced_waypoints": [0, 2, 3, 4],
         "path": [0, 2, 3, 4],
         "keyframes": list(range(0, L.JOINT_POS_SLICE.stop)),
         "keyframe_block": list(range(0, L.JOINT_POS_SLICE.stop)),
@@ -123,6 +124,28 @@ def test_constraint_patterns_touch_their_features(pattern: str) -> None:
         assert set(cols.tolist()) <= set(allowed)
     none = ConstraintSamplingConfig(p_none=1.0)
     assert not sample_constraint_mask(40, 16, rng, none).any()
+
+
+def test_paced_waypoints_are_evenly_spaced() -> None:
+    cfg = ConstraintSamplingConfig(
+        p_none=0.0, p_mixture=0.0, p_window_only=0.0, weights={"paced_waypoints": 1.0}
+    )
+    rng = np.random.default_rng(4)
+    spacings = set()
+    for _ in range(50):
+        frames = np.nonzero(sample_constraint_mask(40, 160, rng, cfg)[:, 0])[0]
+        gaps = np.diff(frames)
+        assert len(set(gaps.tolist())) == 1 and 20 <= gaps[0] <= 60
+        assert frames[0] < gaps[0] and frames[-1] + gaps[0] >= 200  # over window and future
+        spacings.add(int(gaps[0]))
+    assert len(spacings) > 10
+    # Without the pattern's weight the draw is the one configs before it had.
+    old = ConstraintSamplingConfig()
+    a = [sample_constraint_mask(40, 16, np.random.default_rng(s), old) for s in range(20)]
+    weights = {**old.weights, "paced_waypoints": 0.0}
+    zero = ConstraintSamplingConfig(weights=weights)
+    b = [sample_constraint_mask(40, 16, np.random.default_rng(s), zero) for s in range(20)]
+    assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
 
 
 def test_split_long_keeps_labels() -> None:

@@ -2,7 +2,9 @@
 
 ``sample_constraint_mask`` returns a 0/1 mask [frames, M] over the window frames followed by
 the available future frames; the goal is the ground truth (normalized, re-centered) times
-the mask. Patterns: sparse root waypoints (x, z, with or without heading), dense root paths
+the mask. Patterns: sparse root waypoints (x, z, with or without heading), paced waypoints
+(one every 1 to 3 s over the window and its future, as a game's route or the evaluation
+gives them, so the next one often lies just past the window's end), dense root paths
 (x, z per frame over a span, with or without heading), full-body keyframes (root, 6D
 rotations, joint positions) and keyframe blocks, sparse end-effector positions and/or
 rotations (hands, feet, head), foot contacts over a span, none, and mixtures of two
@@ -17,7 +19,15 @@ import numpy as np
 
 from ardy_export.models import layout as L
 
-PATTERNS = ("waypoints", "path", "keyframes", "keyframe_block", "end_effectors", "contacts")
+PATTERNS = (
+    "waypoints",
+    "paced_waypoints",
+    "path",
+    "keyframes",
+    "keyframe_block",
+    "end_effectors",
+    "contacts",
+)
 
 
 @dataclass
@@ -30,6 +40,7 @@ class ConstraintSamplingConfig:
     max_keyframes: int = 3
     max_block: int = 8
     max_effector_frames: int = 4
+    paced_spacing: tuple[int, int] = (20, 60)  # frames between paced waypoints (1-3 s)
     weights: dict[str, float] = field(
         default_factory=lambda: {
             "waypoints": 1.0,
@@ -61,6 +72,12 @@ def _apply(
     heading = rng.random() < cfg.p_heading
     if pattern == "waypoints":
         for f in _frames(rng, hi, int(rng.integers(1, cfg.max_waypoints + 1))):
+            mask[f, [0, 2]] = 1.0
+            if heading:
+                mask[f, L.HEADING_SLICE] = 1.0
+    elif pattern == "paced_waypoints":
+        spacing = int(rng.integers(cfg.paced_spacing[0], cfg.paced_spacing[1] + 1))
+        for f in range(int(rng.integers(0, spacing)), hi, spacing):
             mask[f, [0, 2]] = 1.0
             if heading:
                 mask[f, L.HEADING_SLICE] = 1.0
