@@ -297,6 +297,27 @@ def constraint_errors(case: Case, motion: Generated) -> dict[str, float]:
     return out
 
 
+def _errors_by_label(
+    cases: list[Case], errors: list[dict[str, float]]
+) -> dict[str, dict[str, float]]:
+    """Each test label's mean error, its case count and how far the real root travels over
+    the crop (metres along the ground), to tell where a task's error comes from."""
+    grouped: dict[str, list[tuple[float, float]]] = {}
+    for case, error in zip(cases, errors, strict=True):
+        assert case.reference is not None
+        steps = np.diff(case.reference[:, [0, 2]], axis=0)
+        travel = float(np.linalg.norm(steps, axis=1).sum())
+        grouped.setdefault("/".join(case.group), []).append((error["error_m"], travel))
+    return {
+        label: {
+            "error_m": float(np.mean([e for e, _ in values])),
+            "travel_m": float(np.mean([t for _, t in values])),
+            "count": len(values),
+        }
+        for label, values in sorted(grouped.items())
+    }
+
+
 def constraints_section(ctx: Context) -> dict[str, Any]:
     cfg = ctx.config["constraints"]
     cases = constraint_cases(
@@ -318,6 +339,7 @@ def constraints_section(ctx: Context) -> dict[str, Any]:
             positions = [m.positions for _, m in pairs]
             row["foot_skate"] = metrics.foot_skate(positions, ctx.feet, ctx.fps)
             row["count"] = len(pairs)
+            row["by_label"] = _errors_by_label([c for c, _ in pairs], errors)
             tasks[task + suffix] = row
     reals = [positions_from_features(c.reference) for c in cases if c.task == "root"]
     return {"tasks": tasks, "dataset_foot_skate": metrics.foot_skate(reals, ctx.feet, ctx.fps)}
