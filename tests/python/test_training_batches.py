@@ -189,3 +189,30 @@ def test_content_balanced_draw() -> None:
     assert np.allclose(balanced[33:], 1 / 40)
     half = sequence_weights(segments, 0.5)
     assert half[:30].sum() / half[30:33].sum() == pytest.approx(np.sqrt(30 / 3))
+
+
+def test_reach_shortfall_counts_only_ending_further_than_the_data() -> None:
+    import torch
+
+    from ardy_export.training.losses import reach_shortfall
+
+    frames, future = 40, 16
+    real = torch.zeros(3, frames, 5)
+    real[:, -1, 2] = 2.0  # the data's window ends 2 m ahead
+    pred = real.clone()
+    pred[0, -1, 2] = 1.0  # 1 m short of where the data ended
+    pred[1, -1, 2] = 2.5  # closer to the goal than the data: no penalty
+    pred[2, -1, 2] = 0.0  # far short, but its goal lies beyond the horizon
+    goal = torch.zeros(3, future, L.FEATURE_SIZE)
+    mask = torch.zeros_like(goal)
+    goal[:2, 2, 2] = 3.0  # a waypoint 3 frames past the window's end, 3 m ahead
+    mask[:2, 2, [0, 2]] = 1.0
+    goal[2, 12, 2] = 3.0
+    mask[2, 12, [0, 2]] = 1.0
+    keep = torch.ones(3)
+    got = reach_shortfall(pred, real, goal, mask, keep, horizon=8)
+    assert float(got) == pytest.approx(0.5)  # (1.0 + 0.0) / the 2 windows with a near goal
+    assert float(reach_shortfall(pred, real, goal, mask, torch.zeros(3), horizon=8)) == 0.0
+    assert float(reach_shortfall(pred, real, goal, mask, keep, horizon=16)) == pytest.approx(
+        (1.0 + 0.0 + 2.0) / 3
+    )

@@ -121,6 +121,37 @@ def tokenizer_loss(
     return total, parts
 
 
+def reach_shortfall(
+    root_pred: Tensor,
+    root_real: Tensor,
+    future_goal: Tensor,
+    future_goal_mask: Tensor,
+    keep: Tensor,
+    horizon: int,
+) -> Tensor:
+    """How much further from the next root waypoint the predicted window ends than the
+    data's window did (metres, 0 where it ends as close or closer), averaged over the
+    windows with a root (x, z) goal within ``horizon`` frames past their end.
+
+    The sampler writes the window's own root goals into its prediction, so a waypoint
+    inside the window is met whatever the network predicts; one just past the window's
+    end is met only if the network walks there in time, and the next window's first
+    frame cannot jump to it. ``root_pred``/``root_real`` [B, frames, 5] and the goals
+    [B, F*P, M] in metres (recentered, denormalized); ``keep`` [B] (constraint_keep)."""
+    near = future_goal_mask[:, :horizon]
+    has_xz = (near[..., 0] > 0) & (near[..., 2] > 0)
+    usable = has_xz.any(dim=1) & (keep > 0.5)
+    if not bool(usable.any()):
+        return root_pred.new_zeros(())
+    first = torch.argmax(has_xz.to(torch.int64), dim=1)
+    rows = torch.arange(len(first), device=first.device)
+    goal = future_goal[rows, first][:, [0, 2]]
+    pred_gap = torch.linalg.norm(root_pred[:, -1, [0, 2]] - goal, dim=-1)
+    real_gap = torch.linalg.norm(root_real[:, -1, [0, 2]] - goal, dim=-1)
+    shortfall = F.relu(pred_gap - real_gap)
+    return shortfall[usable].mean()
+
+
 def denoiser_loss(
     denoiser: nn.Module,
     decoder: nn.Module,
@@ -166,7 +197,9 @@ def denoiser_loss(
     hybrid = (per * group).mean() / group.mean()
     total = weights.get("hybrid", 1.0) * hybrid
     parts = {"hybrid": float(hybrid.detach())}
-    need_decode = any(weights.get(k, 0.0) > 0.0 for k in ("decoded", "goal", "fk", "skate"))
+    need_decode = any(
+        weights.get(k, 0.0) > 0.0 for k in ("decoded", "goal", "fk", "skate", "reach")
+    )
     if need_decode:
         body_hat = decoder(x0_hat, batch["prev_root"], batch["prev_valid"])
         rd = cfg.root_token_dim
@@ -186,6 +219,19 @@ def denoiser_loss(
             gl = (mask * (explicit - goal)).abs().sum() / (mask.sum() + 1.0)
             total = total + weights["goal"] * gl
             parts["goal"] = float(gl.detach())
+        if weights.get("reach", 0.0) > 0.0:
+            goals = batch["future_goal"].reshape(b, -1, L.FEATURE_SIZE)
+            real = x0[..., :rd].reshape(b, frames, cfg.root_dim)
+            reach = reach_shortfall(
+                root_raw,
+                real * ctx.std[: L.ROOT_DIM] + ctx.mean[: L.ROOT_DIM],
+                goals * ctx.std + ctx.mean,
+                batch["future_goal_mask"].reshape(b, -1, L.FEATURE_SIZE),
+                batch["constraint_keep"],
+                2 * cfg.patch,  # the first two future tokens (0.4 s)
+            )
+            total = total + weights["reach"] * reach
+            parts["reach"] = float(reach.detach())
         if weights.get("skate", 0.0) > 0.0:
             # Contact-aware: the decoded feet of the predicted motion must not slide where
             # the data's contact labels say a foot is planted (eq. 6 on the prediction).
