@@ -930,8 +930,12 @@ def _reading_lines(results: dict[str, Any]) -> list[str]:
             "guidance; each moved them by 0.02 to 0.06 m, and the last two made the feet "
             "slide more on a steered path. The tripled goal term, then more contact-aware "
             "training (`stage12`, and the shipped stage 13 after it), reached the bar with "
-            "little room. What would close the gap to the paper's: a larger denoiser trained "
-            "far longer (GPU time)."
+            "little room. A reach term (a window must end as close to a waypoint just past "
+            "its end as the data's window did; `stage18`, `stage19`) brought them well under "
+            "the bar, but the model learned to lunge in a window's last frames, and text-only "
+            "skate went over its bar. What would close the gap to the paper's: the reach "
+            "asked of the whole window's path rather than its last frame, and a larger "
+            "denoiser trained far longer (GPU time)."
         )
         bullets.append(line)
     ablation = "**Ablations** (small models, one CPU budget each): see the table below."
