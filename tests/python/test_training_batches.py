@@ -216,3 +216,22 @@ def test_reach_shortfall_counts_only_ending_further_than_the_data() -> None:
     assert float(reach_shortfall(pred, real, goal, mask, keep, horizon=16)) == pytest.approx(
         (1.0 + 0.0 + 2.0) / 3
     )
+
+
+def test_reach_path_error_weighs_every_frame_of_windows_near_a_waypoint() -> None:
+    import torch
+
+    from ardy_export.training.losses import reach_path_error
+
+    frames, future = 40, 16
+    real = torch.zeros(2, frames, 5)
+    pred = real.clone()
+    pred[0, -1, 2] = 4.0  # a lunge in the last frame only: 4 m / 40 frames on average
+    pred[1, :, 0] = 3.0  # 3 m off everywhere, but no waypoint near this window's end
+    mask = torch.zeros(2, future, L.FEATURE_SIZE)
+    mask[0, 1, [0, 2]] = 1.0
+    mask[1, 12, [0, 2]] = 1.0
+    keep = torch.ones(2)
+    assert float(reach_path_error(pred, real, mask, keep, horizon=8)) == pytest.approx(0.1)
+    assert float(reach_path_error(pred, real, mask, keep, horizon=16)) == pytest.approx(1.55)
+    assert float(reach_path_error(pred, real, mask, torch.zeros(2), horizon=16)) == 0.0

@@ -94,8 +94,8 @@ def trained(tmp_path_factory: pytest.TempPathFactory, bandai_archives: Path) -> 
                 "max_history_tokens": 8,
                 "max_future_tokens": 4,
             },
-            # the reach term on (it needs root waypoints just past the window's end)
-            "loss": {"reach": 0.5},
+            # the reach terms on (they need root waypoints just past the window's end)
+            "loss": {"reach": 0.5, "reach_path": 0.5},
             # dense paths drawn 3x as often as in the default mix (brief training)
             "constraints": {
                 "weights": {
@@ -137,8 +137,9 @@ def test_a_few_hundred_steps_cut_both_losses(trained: dict[str, Any]) -> None:
     assert _ratio(trained["tok"], "loss") < 0.6
     assert _ratio(trained["den"], "hybrid") < 0.5
     assert _ratio(trained["den"], "loss") < 0.8
-    reach = [r["reach"] for r in trained["den"].history if "reach" in r]
-    assert reach and all(np.isfinite(reach)) and min(reach) >= 0.0
+    for term in ("reach", "reach_path"):
+        values = [r[term] for r in trained["den"].history if term in r]
+        assert values and all(np.isfinite(values)) and min(values) >= 0.0
 
 
 @pytest.mark.requires_data

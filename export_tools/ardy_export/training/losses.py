@@ -152,6 +152,27 @@ def reach_shortfall(
     return shortfall[usable].mean()
 
 
+def reach_path_error(
+    root_pred: Tensor,
+    root_real: Tensor,
+    future_goal_mask: Tensor,
+    keep: Tensor,
+    horizon: int,
+) -> Tensor:
+    """Mean distance (metres) between the predicted and the data's root (x, z) over every
+    frame of the windows with a root waypoint within ``horizon`` frames past their end.
+
+    ``reach_shortfall`` asks this of the last frame only, and the model met it by lunging
+    in a window's last frames; asked of the whole path, the waypoint can only be met by
+    walking there as the data did. Shapes as ``reach_shortfall``."""
+    near = future_goal_mask[:, :horizon]
+    usable = ((near[..., 0] > 0) & (near[..., 2] > 0)).any(dim=1) & (keep > 0.5)
+    if not bool(usable.any()):
+        return root_pred.new_zeros(())
+    gap = torch.linalg.norm(root_pred[..., [0, 2]] - root_real[..., [0, 2]], dim=-1)
+    return gap.mean(dim=1)[usable].mean()
+
+
 def denoiser_loss(
     denoiser: nn.Module,
     decoder: nn.Module,
@@ -198,7 +219,7 @@ def denoiser_loss(
     total = weights.get("hybrid", 1.0) * hybrid
     parts = {"hybrid": float(hybrid.detach())}
     need_decode = any(
-        weights.get(k, 0.0) > 0.0 for k in ("decoded", "goal", "fk", "skate", "reach")
+        weights.get(k, 0.0) > 0.0 for k in ("decoded", "goal", "fk", "skate", "reach", "reach_path")
     )
     if need_decode:
         body_hat = decoder(x0_hat, batch["prev_root"], batch["prev_valid"])
@@ -219,19 +240,29 @@ def denoiser_loss(
             gl = (mask * (explicit - goal)).abs().sum() / (mask.sum() + 1.0)
             total = total + weights["goal"] * gl
             parts["goal"] = float(gl.detach())
-        if weights.get("reach", 0.0) > 0.0:
-            goals = batch["future_goal"].reshape(b, -1, L.FEATURE_SIZE)
+        if weights.get("reach", 0.0) > 0.0 or weights.get("reach_path", 0.0) > 0.0:
             real = x0[..., :rd].reshape(b, frames, cfg.root_dim)
-            reach = reach_shortfall(
-                root_raw,
-                real * ctx.std[: L.ROOT_DIM] + ctx.mean[: L.ROOT_DIM],
-                goals * ctx.std + ctx.mean,
-                batch["future_goal_mask"].reshape(b, -1, L.FEATURE_SIZE),
-                batch["constraint_keep"],
-                2 * cfg.patch,  # the first two future tokens (0.4 s)
-            )
-            total = total + weights["reach"] * reach
-            parts["reach"] = float(reach.detach())
+            real_raw = real * ctx.std[: L.ROOT_DIM] + ctx.mean[: L.ROOT_DIM]
+            future_mask = batch["future_goal_mask"].reshape(b, -1, L.FEATURE_SIZE)
+            near = 2 * cfg.patch  # the first two future tokens (0.4 s)
+            if weights.get("reach", 0.0) > 0.0:
+                goals = batch["future_goal"].reshape(b, -1, L.FEATURE_SIZE)
+                reach = reach_shortfall(
+                    root_raw,
+                    real_raw,
+                    goals * ctx.std + ctx.mean,
+                    future_mask,
+                    batch["constraint_keep"],
+                    near,
+                )
+                total = total + weights["reach"] * reach
+                parts["reach"] = float(reach.detach())
+            if weights.get("reach_path", 0.0) > 0.0:
+                path = reach_path_error(
+                    root_raw, real_raw, future_mask, batch["constraint_keep"], near
+                )
+                total = total + weights["reach_path"] * path
+                parts["reach_path"] = float(path.detach())
         if weights.get("skate", 0.0) > 0.0:
             # Contact-aware: the decoded feet of the predicted motion must not slide where
             # the data's contact labels say a foot is planted (eq. 6 on the prediction).
