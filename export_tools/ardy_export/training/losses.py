@@ -121,6 +121,14 @@ def tokenizer_loss(
     return total, parts
 
 
+def _near_root_goals(future_goal_mask: Tensor, keep: Tensor, horizon: int) -> tuple[Tensor, Tensor]:
+    """[B, horizon] frames past the window's end with a root (x, z) goal, and [B] the
+    windows that have one and kept their constraints."""
+    near = future_goal_mask[:, :horizon]
+    has_xz = (near[..., 0] > 0) & (near[..., 2] > 0)
+    return has_xz, has_xz.any(dim=1) & (keep > 0.5)
+
+
 def reach_shortfall(
     root_pred: Tensor,
     root_real: Tensor,
@@ -138,9 +146,7 @@ def reach_shortfall(
     end is met only if the network walks there in time, and the next window's first
     frame cannot jump to it. ``root_pred``/``root_real`` [B, frames, 5] and the goals
     [B, F*P, M] in metres (recentered, denormalized); ``keep`` [B] (constraint_keep)."""
-    near = future_goal_mask[:, :horizon]
-    has_xz = (near[..., 0] > 0) & (near[..., 2] > 0)
-    usable = has_xz.any(dim=1) & (keep > 0.5)
+    has_xz, usable = _near_root_goals(future_goal_mask, keep, horizon)
     if not bool(usable.any()):
         return root_pred.new_zeros(())
     first = torch.argmax(has_xz.to(torch.int64), dim=1)
@@ -165,8 +171,7 @@ def reach_path_error(
     ``reach_shortfall`` asks this of the last frame only, and the model met it by lunging
     in a window's last frames; asked of the whole path, the waypoint can only be met by
     walking there as the data did. Shapes as ``reach_shortfall``."""
-    near = future_goal_mask[:, :horizon]
-    usable = ((near[..., 0] > 0) & (near[..., 2] > 0)).any(dim=1) & (keep > 0.5)
+    _, usable = _near_root_goals(future_goal_mask, keep, horizon)
     if not bool(usable.any()):
         return root_pred.new_zeros(())
     gap = torch.linalg.norm(root_pred[..., [0, 2]] - root_real[..., [0, 2]], dim=-1)
