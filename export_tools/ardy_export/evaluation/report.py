@@ -933,9 +933,10 @@ def _reading_lines(results: dict[str, Any]) -> list[str]:
             "little room. A reach term (a window must end as close to a waypoint just past "
             "its end as the data's window did; `stage18`, `stage19`) brought them well under "
             "the bar, but the model learned to lunge in a window's last frames, and text-only "
-            "skate went over its bar. What would close the gap to the paper's: the reach "
-            "asked of the whole window's path rather than its last frame, and a larger "
-            "denoiser trained far longer (GPU time)."
+            "skate went over its bar; asked of the whole window's path instead (`stage20`), "
+            "it stopped the lunge and did not move the waypoints. What would close the gap "
+            "to the paper's: a larger denoiser trained far longer (GPU time), whose windows "
+            "head for goals beyond their end as the paper's do."
         )
         bullets.append(line)
     ablation = "**Ablations** (small models, one CPU budget each): see the table below."
