@@ -235,3 +235,27 @@ def test_reach_path_error_weighs_every_frame_of_windows_near_a_waypoint() -> Non
     assert float(reach_path_error(pred, real, mask, keep, horizon=8)) == pytest.approx(0.1)
     assert float(reach_path_error(pred, real, mask, keep, horizon=16)) == pytest.approx(1.55)
     assert float(reach_path_error(pred, real, mask, torch.zeros(2), horizon=16)) == 0.0
+
+
+def test_reach_speed_excess_counts_only_speed_above_the_datas_fastest_frame() -> None:
+    import torch
+
+    from ardy_export.training.losses import reach_speed_excess
+
+    frames, future, fps = 40, 16, 20.0
+    real = torch.zeros(2, frames, 5)
+    real[:, :, 2] = torch.arange(frames) * 0.05  # 1 m/s forward, every frame
+    pred = real.clone()
+    pred[0, -3:, 2] += torch.tensor([0.05, 0.10, 0.15])  # the last 3 steps at 2 m/s: a lunge
+    pred[1, :, 0] = torch.arange(frames) * 0.05  # sqrt(2) m/s, but no waypoint near its end
+    mask = torch.zeros(2, future, L.FEATURE_SIZE)
+    mask[0, 1, [0, 2]] = 1.0
+    mask[1, 12, [0, 2]] = 1.0
+    keep = torch.ones(2)
+    lunge = 3 * 1.0 / (frames - 1)  # 1 m/s too fast over 3 of the 39 steps
+    got = reach_speed_excess(pred, real, mask, keep, horizon=8, fps=fps)
+    assert float(got) == pytest.approx(lunge, rel=1e-5)
+    both = reach_speed_excess(pred, real, mask, keep, horizon=16, fps=fps)
+    assert float(both) == pytest.approx((lunge + (2**0.5 - 1.0)) / 2, rel=1e-5)
+    assert float(reach_speed_excess(real, real, mask, keep, horizon=16, fps=fps)) == 0.0
+    assert float(reach_speed_excess(pred, real, mask, torch.zeros(2), horizon=16, fps=fps)) == 0.0

@@ -95,7 +95,7 @@ def trained(tmp_path_factory: pytest.TempPathFactory, bandai_archives: Path) -> 
                 "max_future_tokens": 4,
             },
             # the reach terms on (they need root waypoints just past the window's end)
-            "loss": {"reach": 0.5, "reach_path": 0.5},
+            "loss": {"reach": 0.5, "reach_path": 0.5, "reach_speed": 0.5},
             # dense paths drawn 3x as often as in the default mix (brief training)
             "constraints": {
                 "weights": {
@@ -137,7 +137,7 @@ def test_a_few_hundred_steps_cut_both_losses(trained: dict[str, Any]) -> None:
     assert _ratio(trained["tok"], "loss") < 0.6
     assert _ratio(trained["den"], "hybrid") < 0.5
     assert _ratio(trained["den"], "loss") < 0.8
-    for term in ("reach", "reach_path"):
+    for term in ("reach", "reach_path", "reach_speed"):
         values = [r[term] for r in trained["den"].history if term in r]
         assert values and all(np.isfinite(values)) and min(values) >= 0.0
 

@@ -70,14 +70,13 @@ def _apply(
     cfg: ConstraintSamplingConfig,
 ) -> None:
     heading = rng.random() < cfg.p_heading
-    if pattern == "waypoints":
-        for f in _frames(rng, hi, int(rng.integers(1, cfg.max_waypoints + 1))):
-            mask[f, [0, 2]] = 1.0
-            if heading:
-                mask[f, L.HEADING_SLICE] = 1.0
-    elif pattern == "paced_waypoints":
-        spacing = int(rng.integers(cfg.paced_spacing[0], cfg.paced_spacing[1] + 1))
-        for f in range(int(rng.integers(0, spacing)), hi, spacing):
+    if pattern in ("waypoints", "paced_waypoints"):
+        if pattern == "waypoints":
+            frames = _frames(rng, hi, int(rng.integers(1, cfg.max_waypoints + 1)))
+        else:
+            spacing = int(rng.integers(cfg.paced_spacing[0], cfg.paced_spacing[1] + 1))
+            frames = np.arange(int(rng.integers(0, spacing)), hi, spacing)
+        for f in frames:
             mask[f, [0, 2]] = 1.0
             if heading:
                 mask[f, L.HEADING_SLICE] = 1.0

@@ -178,6 +178,30 @@ def reach_path_error(
     return gap.mean(dim=1)[usable].mean()
 
 
+def reach_speed_excess(
+    root_pred: Tensor,
+    root_real: Tensor,
+    future_goal_mask: Tensor,
+    keep: Tensor,
+    horizon: int,
+    fps: float,
+) -> Tensor:
+    """How much faster (m/s) the predicted root moves than the data's fastest frame of the
+    same window, averaged over every frame of the windows with a root waypoint within
+    ``horizon`` frames past their end (0 where it is no faster).
+
+    Beside ``reach_shortfall`` it leaves one way to end near the next waypoint: walking
+    there at the data's pace from earlier in the window, not a lunge in the last frames
+    (which that term alone taught). Shapes as ``reach_shortfall``."""
+    _, usable = _near_root_goals(future_goal_mask, keep, horizon)
+    if not bool(usable.any()):
+        return root_pred.new_zeros(())
+    pred_speed = torch.linalg.norm(torch.diff(root_pred[..., [0, 2]], dim=1), dim=-1) * fps
+    real_speed = torch.linalg.norm(torch.diff(root_real[..., [0, 2]], dim=1), dim=-1) * fps
+    fastest_real = real_speed.amax(dim=1, keepdim=True)
+    return F.relu(pred_speed - fastest_real).mean(dim=1)[usable].mean()
+
+
 def denoiser_loss(
     denoiser: nn.Module,
     decoder: nn.Module,
@@ -223,9 +247,8 @@ def denoiser_loss(
     hybrid = (per * group).mean() / group.mean()
     total = weights.get("hybrid", 1.0) * hybrid
     parts = {"hybrid": float(hybrid.detach())}
-    need_decode = any(
-        weights.get(k, 0.0) > 0.0 for k in ("decoded", "goal", "fk", "skate", "reach", "reach_path")
-    )
+    decoded_terms = ("decoded", "goal", "fk", "skate", "reach", "reach_path", "reach_speed")
+    need_decode = any(weights.get(k, 0.0) > 0.0 for k in decoded_terms)
     if need_decode:
         body_hat = decoder(x0_hat, batch["prev_root"], batch["prev_valid"])
         rd = cfg.root_token_dim
@@ -245,7 +268,7 @@ def denoiser_loss(
             gl = (mask * (explicit - goal)).abs().sum() / (mask.sum() + 1.0)
             total = total + weights["goal"] * gl
             parts["goal"] = float(gl.detach())
-        if weights.get("reach", 0.0) > 0.0 or weights.get("reach_path", 0.0) > 0.0:
+        if any(weights.get(k, 0.0) > 0.0 for k in ("reach", "reach_path", "reach_speed")):
             real = x0[..., :rd].reshape(b, frames, cfg.root_dim)
             real_raw = real * ctx.std[: L.ROOT_DIM] + ctx.mean[: L.ROOT_DIM]
             future_mask = batch["future_goal_mask"].reshape(b, -1, L.FEATURE_SIZE)
@@ -268,6 +291,12 @@ def denoiser_loss(
                 )
                 total = total + weights["reach_path"] * path
                 parts["reach_path"] = float(path.detach())
+            if weights.get("reach_speed", 0.0) > 0.0:
+                excess = reach_speed_excess(
+                    root_raw, real_raw, future_mask, batch["constraint_keep"], near, ctx.fps
+                )
+                total = total + weights["reach_speed"] * excess
+                parts["reach_speed"] = float(excess.detach())
         if weights.get("skate", 0.0) > 0.0:
             # Contact-aware: the decoded feet of the predicted motion must not slide where
             # the data's contact labels say a foot is planted (eq. 6 on the prediction).
