@@ -220,3 +220,33 @@ def test_history_attends_only_to_history() -> None:
     hist = slice(2, 6)
     assert torch.allclose(seen[0][:, hist], seen[1][:, hist], atol=1e-6)
     assert not torch.allclose(seen[0][:, 6:], seen[1][:, 6:], atol=1e-3)
+
+
+@pytest.mark.parametrize("two_stage", [True, False])
+def test_a_deeper_denoiser_grown_from_a_trained_one_computes_the_same(two_stage: bool) -> None:
+    """load_shallower: the trained layers first, the added ones the identity, so the deeper
+    model starts from the same outputs; the added layers then train (their output
+    projections get gradients)."""
+    shallow = _denoiser(two_stage)
+    deeper = Denoiser(DenoiserConfig.from_dict({**shallow.config.to_dict(), "layers": 4}))
+    assert deeper.load_shallower(shallow.state_dict()) == 2
+    inputs = example_denoiser_inputs(shallow, batch=2, history=3, future=2, seed=5)
+    with torch.no_grad():
+        assert torch.allclose(deeper.eval()(*inputs), _run(shallow, inputs), atol=1e-6)
+    deeper.train()(*inputs).square().sum().backward()
+    added = deeper.stages[0].transformer.layers[3]
+    assert float(added.ff[2].weight.grad.abs().sum()) > 0.0
+    assert float(added.attn.out.weight.grad.abs().sum()) > 0.0
+
+
+def test_growing_refuses_a_checkpoint_that_differs_in_more_than_depth() -> None:
+    shallow = _denoiser()
+    wider = Denoiser(DenoiserConfig.from_dict({**shallow.config.to_dict(), "width": 64}))
+    with pytest.raises(RuntimeError, match="size mismatch"):
+        wider.load_shallower(shallow.state_dict())
+    fewer = Denoiser(DenoiserConfig.from_dict({**shallow.config.to_dict(), "layers": 1}))
+    with pytest.raises(ValueError, match="2 layers per stage cannot grow to 1"):
+        fewer.load_shallower(shallow.state_dict())
+    joint = Denoiser(DenoiserConfig.from_dict({**shallow.config.to_dict(), "two_stage": False}))
+    with pytest.raises(ValueError, match="more than its layer count"):
+        joint.load_shallower(shallow.state_dict())

@@ -41,7 +41,8 @@ token. No dropout anywhere.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import re
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -301,6 +302,33 @@ class Denoiser(nn.Module):
     @property
     def stages(self) -> list[_Stage]:
         return [self.root_stage, self.body_stage] if self.config.two_stage else [self.joint_stage]
+
+    def load_shallower(self, state: Mapping[str, Tensor]) -> int:
+        """Load a trained denoiser of the same sizes but fewer transformer layers per stage:
+        its layers come first and the added ones start as the identity, so this model
+        computes what that one did and training goes on from there. Returns the layers
+        loaded per stage."""
+        layer_key = re.compile(r"\.transformer\.layers\.(\d+)\.")
+        loaded = 1 + max(
+            (int(m.group(1)) for key in state if (m := layer_key.search(key))), default=-1
+        )
+        if not 0 < loaded <= self.config.layers:
+            raise ValueError(
+                f"a denoiser with {loaded} layers per stage cannot grow to {self.config.layers}"
+            )
+        missing, unexpected = self.load_state_dict(state, strict=False)
+        added = [
+            key for key in missing if (m := layer_key.search(key)) and int(m.group(1)) >= loaded
+        ]
+        if unexpected or len(added) != len(missing):
+            raise ValueError(
+                "the checkpoint differs from this denoiser in more than its layer count: "
+                f"missing {sorted(set(missing) - set(added))[:3]}, unexpected {unexpected[:3]}"
+            )
+        for stage in self.stages:
+            for layer in list(stage.transformer.layers)[loaded:]:
+                layer.zero_residual()
+        return loaded
 
     def forward(
         self,

@@ -100,6 +100,14 @@ class EncoderLayer(nn.Module):
         x = x + self.attn(self.norm1(x), bias, prefix)
         return x + self.ff(self.norm2(x))
 
+    def zero_residual(self) -> None:
+        """Make the layer the identity (attention and feed-forward add zero), so a layer
+        added to a trained stack starts from what the stack computed; the zero output
+        projections still get gradients, and through them the rest of the layer."""
+        for linear in (self.attn.out, self.ff[2]):
+            nn.init.zeros_(linear.weight)
+            nn.init.zeros_(linear.bias)
+
     def forward_keeping_keys_values(self, x: Tensor, bias: Tensor) -> tuple[Tensor, KeysValues]:
         """The layer's output and the keys and values its attention computed."""
         q, k, v = self.attn.project(self.norm1(x))
