@@ -326,7 +326,7 @@ class Denoiser(nn.Module):
                 f"missing {sorted(set(missing) - set(added))[:3]}, unexpected {unexpected[:3]}"
             )
         for stage in self.stages:
-            for layer in list(stage.transformer.layers)[loaded:]:
+            for layer in stage.transformer.layers[loaded:]:
                 layer.zero_residual()
         return loaded
 

@@ -247,7 +247,8 @@ def denoiser_loss(
     hybrid = (per * group).mean() / group.mean()
     total = weights.get("hybrid", 1.0) * hybrid
     parts = {"hybrid": float(hybrid.detach())}
-    decoded_terms = ("decoded", "goal", "fk", "skate", "reach", "reach_path", "reach_speed")
+    reach_terms = ("reach", "reach_path", "reach_speed")
+    decoded_terms = ("decoded", "goal", "fk", "skate", *reach_terms)
     need_decode = any(weights.get(k, 0.0) > 0.0 for k in decoded_terms)
     if need_decode:
         body_hat = decoder(x0_hat, batch["prev_root"], batch["prev_valid"])
@@ -268,7 +269,7 @@ def denoiser_loss(
             gl = (mask * (explicit - goal)).abs().sum() / (mask.sum() + 1.0)
             total = total + weights["goal"] * gl
             parts["goal"] = float(gl.detach())
-        if any(weights.get(k, 0.0) > 0.0 for k in ("reach", "reach_path", "reach_speed")):
+        if any(weights.get(k, 0.0) > 0.0 for k in reach_terms):
             real = x0[..., :rd].reshape(b, frames, cfg.root_dim)
             real_raw = real * ctx.std[: L.ROOT_DIM] + ctx.mean[: L.ROOT_DIM]
             future_mask = batch["future_goal_mask"].reshape(b, -1, L.FEATURE_SIZE)
