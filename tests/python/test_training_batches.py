@@ -259,3 +259,38 @@ def test_reach_speed_excess_counts_only_speed_above_the_datas_fastest_frame() ->
     assert float(both) == pytest.approx((lunge + (2**0.5 - 1.0)) / 2, rel=1e-5)
     assert float(reach_speed_excess(real, real, mask, keep, horizon=16, fps=fps)) == 0.0
     assert float(reach_speed_excess(pred, real, mask, torch.zeros(2), horizon=16, fps=fps)) == 0.0
+
+
+def test_text_bank_augmentation_stays_on_the_label_and_off_draws_as_before() -> None:
+    key = ("dataset-1", "walk", "old")
+    sentences = np.eye(4, 384, dtype=np.float32)  # 4 orthogonal unit "sentences"
+
+    def bank(mix: float, noise: float) -> TextBank:
+        made = TextBank([key], "hashed", mix=mix, noise=noise)
+        made.embeddings[key] = sentences
+        return made
+
+    plain, off = bank(0.0, 0.0), TextBank([key], "hashed")
+    off.embeddings[key] = sentences
+    rng_a, rng_b = np.random.default_rng(3), np.random.default_rng(3)
+    for _ in range(50):  # no augmentation: the same draws as a bank without the options
+        assert np.array_equal(plain.sample(key, rng_a), off.sample(key, rng_b))
+    assert rng_a.random() == rng_b.random()
+
+    rng = np.random.default_rng(0)
+    mixed = np.stack([bank(1.0, 0.0).sample(key, rng) for _ in range(400)])
+    assert np.allclose(np.linalg.norm(mixed, axis=1), 1.0, atol=1e-5)
+    assert np.abs(mixed[:, 4:]).max() == 0.0  # blends stay in the label's sentences' span
+    blended = (mixed[:, :4] > 1e-3).sum(axis=1) == 2
+    assert 0.65 < blended.mean() < 0.85  # the second draw is the first sentence 1 time in 4
+
+    noisy = np.stack([bank(0.0, 0.5).sample(key, rng) for _ in range(400)])
+    assert np.allclose(np.linalg.norm(noisy, axis=1), 1.0, atol=1e-5)
+    cosine = noisy[:, :4].max(axis=1)  # against the drawn sentence
+    # offsets of norm uniform in [0, 0.5], nearly orthogonal to it in 384-d
+    assert cosine.min() > 1.0 / np.sqrt(1.0 + 0.5**2) - 0.02
+    assert abs(float(np.median(cosine)) - 1.0 / np.sqrt(1.0 + 0.25**2)) < 0.01
+    assert cosine.max() > 0.999
+
+    with pytest.raises(ValueError, match="mix must be in"):
+        TextBank([key], "hashed", mix=1.5)

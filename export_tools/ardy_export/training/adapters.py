@@ -263,6 +263,15 @@ class TextBank:
     ``sentences`` sentences of the label embedded with MiniLM now; ``"bank"``: a small
     float16 bank written by ``ardy-export text bank``; ``"hashed"``: the hashed
     embedding of the canonical prompt (tests, synthetic data).
+
+    Augmentation, so that prompts worded unlike the training sentences still land near the
+    label they describe: ``mix`` is the chance that a drawn embedding is blended with a
+    second sentence of the same label (its weight uniform in [0, 1]); ``noise`` the largest
+    norm of an isotropic Gaussian offset added to it (its norm uniform in [0, noise]), after
+    which it is scaled back to unit length (the encoder's embeddings are L2-normalized).
+    Both 0 draw exactly as without them. Held-out paraphrases sit at a cosine of about 0.74
+    from their label's nearest training sentence (0.92 between the grammar's sentences);
+    an offset of norm 0.9 reaches that.
     """
 
     def __init__(
@@ -271,7 +280,15 @@ class TextBank:
         mode: str = "hashed",
         sentences: int = 16,
         embedding_cache: str | Path | None = None,
+        mix: float = 0.0,
+        noise: float = 0.0,
     ) -> None:
+        if not 0.0 <= mix <= 1.0 or noise < 0.0:
+            raise ValueError(
+                f"text augmentation: mix must be in [0, 1] and noise >= 0, got {mix}, {noise}"
+            )
+        self.mix = mix
+        self.noise = noise
         self.embeddings: dict[LabelKey, np.ndarray] = {}
         unique = sorted(set(keys))
         if mode == "hashed":
@@ -308,4 +325,14 @@ class TextBank:
 
     def sample(self, key: LabelKey, rng: np.random.Generator) -> np.ndarray:
         options = self.embeddings[key]
-        return options[int(rng.integers(0, len(options)))]
+        drawn = options[int(rng.integers(0, len(options)))]
+        if self.mix == 0.0 and self.noise == 0.0:
+            return drawn
+        if self.mix > 0.0 and len(options) > 1 and rng.random() < self.mix:
+            other = options[int(rng.integers(0, len(options)))]
+            weight = rng.random()
+            drawn = (1.0 - weight) * drawn + weight * other
+        if self.noise > 0.0:
+            norm = self.noise * rng.random()  # clean and far-off wordings alike
+            drawn = drawn + rng.standard_normal(drawn.shape) * (norm / np.sqrt(drawn.size))
+        return (drawn / max(float(np.linalg.norm(drawn)), 1e-8)).astype(np.float32)

@@ -196,6 +196,8 @@ def _train(
         mode=str(text_cfg.get("mode", "encoder")),
         sentences=int(text_cfg.get("sentences_per_label", 16)),
         embedding_cache=text_cfg.get("embedding_cache"),
+        mix=float(text_cfg.get("augment_mix", 0.0)),
+        noise=float(text_cfg.get("augment_noise", 0.0)),
     )
     skeleton_t = None if skeleton is None else torch.from_numpy(skeleton.offsets)
     loss_ctx = LossContext(
