@@ -294,3 +294,21 @@ def test_text_bank_augmentation_stays_on_the_label_and_off_draws_as_before() -> 
 
     with pytest.raises(ValueError, match="mix must be in"):
         TextBank([key], "hashed", mix=1.5)
+
+
+def test_end_speed_excess_counts_a_lunge_in_any_windows_last_frames() -> None:
+    import torch
+
+    from ardy_export.training.losses import end_speed_excess
+
+    frames, fps = 40, 20.0
+    real = torch.zeros(3, frames, 5)
+    real[:, :, 2] = torch.arange(frames) * 0.05  # 1 m/s forward, every frame
+    pred = real.clone()
+    pred[0, -3:, 2] += torch.tensor([0.05, 0.10, 0.15])  # the last 3 steps at 2 m/s: a lunge
+    pred[1, :20, 2] = real[1, :20, 2] * 2.0  # 2 m/s early in the window, then 1 m/s (no lunge)
+    pred[1, 20:, 2] = real[1, 20:, 2] + 0.95
+    pred[2, -4:, 2] = real[2, -4:, 2] - 0.1  # slower at the end: not counted
+    got = end_speed_excess(pred, real, fps, frames=4)
+    assert float(got) == pytest.approx(3 * 1.0 / (3 * 4), rel=1e-5)  # 1 m/s over 3 of 3x4 steps
+    assert float(end_speed_excess(real, real, fps, frames=4)) == 0.0

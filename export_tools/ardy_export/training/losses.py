@@ -202,6 +202,20 @@ def reach_speed_excess(
     return F.relu(pred_speed - fastest_real).mean(dim=1)[usable].mean()
 
 
+def end_speed_excess(root_pred: Tensor, root_real: Tensor, fps: float, frames: int) -> Tensor:
+    """How much faster (m/s) the predicted root moves than the data's over the same frame
+    steps, over the last ``frames`` steps of every window (0 where it is no faster).
+
+    The reach term taught a lunge in a window's last frames, and the lunge showed in
+    windows without any waypoint ahead too (stage 21, whose speed limit acted only where
+    the reach term did); asked of every window, per frame, it leaves no window a lunge the
+    data did not make. Shapes as ``reach_shortfall``."""
+    tail = root_pred.shape[1] - frames - 1
+    pred_speed = torch.linalg.norm(torch.diff(root_pred[:, tail:, [0, 2]], dim=1), dim=-1) * fps
+    real_speed = torch.linalg.norm(torch.diff(root_real[:, tail:, [0, 2]], dim=1), dim=-1) * fps
+    return F.relu(pred_speed - real_speed).mean()
+
+
 def denoiser_loss(
     denoiser: nn.Module,
     decoder: nn.Module,
@@ -247,7 +261,7 @@ def denoiser_loss(
     hybrid = (per * group).mean() / group.mean()
     total = weights.get("hybrid", 1.0) * hybrid
     parts = {"hybrid": float(hybrid.detach())}
-    reach_terms = ("reach", "reach_path", "reach_speed")
+    reach_terms = ("reach", "reach_path", "reach_speed", "end_speed")
     decoded_terms = ("decoded", "goal", "fk", "skate", *reach_terms)
     need_decode = any(weights.get(k, 0.0) > 0.0 for k in decoded_terms)
     if need_decode:
@@ -298,6 +312,10 @@ def denoiser_loss(
                 )
                 total = total + weights["reach_speed"] * excess
                 parts["reach_speed"] = float(excess.detach())
+            if weights.get("end_speed", 0.0) > 0.0:
+                lunge = end_speed_excess(root_raw, real_raw, ctx.fps, cfg.patch)
+                total = total + weights["end_speed"] * lunge
+                parts["end_speed"] = float(lunge.detach())
         if weights.get("skate", 0.0) > 0.0:
             # Contact-aware: the decoded feet of the predicted motion must not slide where
             # the data's contact labels say a foot is planted (eq. 6 on the prediction).
