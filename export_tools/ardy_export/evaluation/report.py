@@ -938,7 +938,9 @@ def _reading_lines(results: dict[str, Any]) -> list[str]:
             "its end as the data's window did; `stage18`, `stage19`) brought them well under "
             "the bar, but the model learned to lunge in a window's last frames, and text-only "
             "skate went over its bar; asked of the whole window's path instead (`stage20`), "
-            "it stopped the lunge and did not move the waypoints. What would close the gap "
+            "it stopped the lunge and did not move the waypoints; so did the last-frame "
+            "term beside a limit on every window's last frames (`stage24`), whose feet "
+            "slid more too. What would close the gap "
             "to the paper's: a larger denoiser trained far longer (GPU time), whose windows "
             "head for goals beyond their end as the paper's do."
         )
