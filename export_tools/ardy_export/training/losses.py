@@ -178,6 +178,11 @@ def reach_path_error(
     return gap.mean(dim=1)[usable].mean()
 
 
+def _root_speed(root: Tensor, fps: float) -> Tensor:
+    """[B, frames - 1] horizontal root speed (m/s) of each frame step of [B, frames, 5]."""
+    return torch.linalg.norm(torch.diff(root[..., [0, 2]], dim=1), dim=-1) * fps
+
+
 def reach_speed_excess(
     root_pred: Tensor,
     root_real: Tensor,
@@ -196,10 +201,8 @@ def reach_speed_excess(
     _, usable = _near_root_goals(future_goal_mask, keep, horizon)
     if not bool(usable.any()):
         return root_pred.new_zeros(())
-    pred_speed = torch.linalg.norm(torch.diff(root_pred[..., [0, 2]], dim=1), dim=-1) * fps
-    real_speed = torch.linalg.norm(torch.diff(root_real[..., [0, 2]], dim=1), dim=-1) * fps
-    fastest_real = real_speed.amax(dim=1, keepdim=True)
-    return F.relu(pred_speed - fastest_real).mean(dim=1)[usable].mean()
+    fastest_real = _root_speed(root_real, fps).amax(dim=1, keepdim=True)
+    return F.relu(_root_speed(root_pred, fps) - fastest_real).mean(dim=1)[usable].mean()
 
 
 def end_speed_excess(root_pred: Tensor, root_real: Tensor, fps: float, frames: int) -> Tensor:
@@ -209,11 +212,10 @@ def end_speed_excess(root_pred: Tensor, root_real: Tensor, fps: float, frames: i
     The reach term taught a lunge in a window's last frames, and the lunge showed in
     windows without any waypoint ahead too (stage 21, whose speed limit acted only where
     the reach term did); asked of every window, per frame, it leaves no window a lunge the
-    data did not make. Shapes as ``reach_shortfall``."""
-    tail = root_pred.shape[1] - frames - 1
-    pred_speed = torch.linalg.norm(torch.diff(root_pred[:, tail:, [0, 2]], dim=1), dim=-1) * fps
-    real_speed = torch.linalg.norm(torch.diff(root_real[:, tail:, [0, 2]], dim=1), dim=-1) * fps
-    return F.relu(pred_speed - real_speed).mean()
+    data did not make (stage 24: it did, and the reach term's waypoint gain went with
+    the lunge). Shapes as ``reach_shortfall``."""
+    excess = _root_speed(root_pred, fps) - _root_speed(root_real, fps)
+    return F.relu(excess[:, -frames:]).mean()
 
 
 def denoiser_loss(
