@@ -18,7 +18,9 @@ torch.set_num_threads(1)
 H_MAX, F_MAX = 6, 4
 
 
-def _denoiser(two_stage: bool = True, history_self_only: bool = True) -> Denoiser:
+def _denoiser(
+    two_stage: bool = True, history_self_only: bool = True, modulation: bool = False
+) -> Denoiser:
     torch.manual_seed(0)
     cfg = DenoiserConfig(
         feature_dim=L.FEATURE_SIZE,
@@ -32,8 +34,15 @@ def _denoiser(two_stage: bool = True, history_self_only: bool = True) -> Denoise
         ff_mult=2,
         two_stage=two_stage,
         history_self_only=history_self_only,
+        condition_modulation=modulation,
     )
-    return Denoiser(cfg).eval()
+    den = Denoiser(cfg).eval()
+    for stage in den.stages:
+        if stage.modulation is not None:
+            # Trained-looking modulation: it starts at zero, which would hide its effects.
+            torch.nn.init.normal_(stage.modulation.proj.weight, std=0.2)
+            torch.nn.init.normal_(stage.modulation.proj.bias, std=0.2)
+    return den
 
 
 @pytest.fixture(scope="module")
@@ -55,14 +64,15 @@ def test_input_names_match_forward() -> None:
     assert tuple(cached) == DENOISER_INPUTS
 
 
-@pytest.mark.parametrize("two_stage", [True, False])
+@pytest.mark.parametrize(("two_stage", "modulation"), [(True, False), (False, False), (True, True)])
 @pytest.mark.parametrize(("history", "future"), [(0, 0), (1, 0), (3, 2), (H_MAX, F_MAX)])
 def test_cached_history_gives_the_uncached_result(
-    two_stage: bool, history: int, future: int
+    two_stage: bool, modulation: bool, history: int, future: int
 ) -> None:
     """forward_cached with history_keys_values and goal_embeddings is forward (the exported
-    graphs' split), rows with and without constraints."""
-    den = _denoiser(two_stage)
+    graphs' split), rows with and without constraints, with and without condition
+    modulation (which must leave the history's keys and values alone)."""
+    den = _denoiser(two_stage, modulation=modulation)
     inputs = example_denoiser_inputs(den, batch=3, history=history, future=future, seed=history)
     inputs[DENOISER_MODULE_INPUTS.index("constraint_keep")][1] = 0.0  # a row without goals
     with torch.no_grad():
@@ -224,12 +234,12 @@ def test_history_attends_only_to_history() -> None:
 
 @pytest.mark.parametrize("two_stage", [True, False])
 def test_a_deeper_denoiser_grown_from_a_trained_one_computes_the_same(two_stage: bool) -> None:
-    """load_shallower: the trained layers first, the added ones the identity, so the deeper
+    """load_grown: the trained layers first, the added ones the identity, so the deeper
     model starts from the same outputs; the added layers then train (their output
     projections get gradients)."""
     shallow = _denoiser(two_stage)
     deeper = Denoiser(DenoiserConfig.from_dict({**shallow.config.to_dict(), "layers": 4}))
-    assert deeper.load_shallower(shallow.state_dict()) == 2
+    assert deeper.load_grown(shallow.state_dict()) == 2
     inputs = example_denoiser_inputs(shallow, batch=2, history=3, future=2, seed=5)
     with torch.no_grad():
         assert torch.allclose(deeper.eval()(*inputs), _run(shallow, inputs), atol=1e-6)
@@ -243,10 +253,36 @@ def test_growing_refuses_a_checkpoint_that_differs_in_more_than_depth() -> None:
     shallow = _denoiser()
     wider = Denoiser(DenoiserConfig.from_dict({**shallow.config.to_dict(), "width": 64}))
     with pytest.raises(RuntimeError, match="size mismatch"):
-        wider.load_shallower(shallow.state_dict())
+        wider.load_grown(shallow.state_dict())
     fewer = Denoiser(DenoiserConfig.from_dict({**shallow.config.to_dict(), "layers": 1}))
     with pytest.raises(ValueError, match="2 layers per stage cannot grow to 1"):
-        fewer.load_shallower(shallow.state_dict())
+        fewer.load_grown(shallow.state_dict())
     joint = Denoiser(DenoiserConfig.from_dict({**shallow.config.to_dict(), "two_stage": False}))
     with pytest.raises(ValueError, match="more than its layer count"):
-        joint.load_shallower(shallow.state_dict())
+        joint.load_grown(shallow.state_dict())
+
+
+def test_modulation_added_to_a_trained_denoiser_starts_at_zero_and_trains() -> None:
+    """load_grown into a modulated denoiser: the same outputs as the unmodulated one at
+    first; the modulation gets gradients, and once it is not zero the text changes the
+    window through it as well as through the text token."""
+    plain = _denoiser()
+    modulated = Denoiser(
+        DenoiserConfig.from_dict({**plain.config.to_dict(), "condition_modulation": True})
+    )
+    assert modulated.load_grown(plain.state_dict()) == 2
+    inputs = example_denoiser_inputs(plain, batch=2, history=3, future=2, seed=7)
+    with torch.no_grad():
+        assert torch.allclose(modulated.eval()(*inputs), _run(plain, inputs), atol=1e-6)
+    modulated.train()(*inputs).square().sum().backward()
+    for stage in modulated.stages:
+        assert stage.modulation is not None
+        assert float(stage.modulation.proj.weight.grad.abs().sum()) > 0.0
+    torch.nn.init.normal_(modulated.root_stage.modulation.proj.weight, std=0.2)
+    other_text = list(inputs)
+    other_text[2] = torch.randn_like(inputs[2])
+    with torch.no_grad():
+        before = modulated.eval()(*inputs) - plain(*inputs)
+        after = modulated(*other_text) - plain(*other_text)
+    assert float(before.abs().max()) > 1e-3
+    assert not torch.allclose(before, after, atol=1e-4)

@@ -32,6 +32,7 @@ from ardy_export.package import (
     PARITY_HISTORY_FUTURE,
     PackageError,
     check_graphs,
+    export_graphs,
     run_denoiser_graphs,
 )
 from ardy_export.sampling.sampler import PromptEvent, RolloutConfig, rollout
@@ -115,6 +116,15 @@ def test_graphs_match_pytorch_for_several_history_and_future_lengths() -> None:
     errors = check_graphs(bundle, COMMITTED)
     assert len(PARITY_HISTORY_FUTURE) >= 4
     assert all(error <= PARITY_ATOL for error in errors.values()), errors
+
+
+def test_graphs_of_a_denoiser_with_condition_modulation_match_pytorch(tmp_path: Path) -> None:
+    """The modulation lives inside denoiser.onnx (same inputs and outputs); history.onnx
+    stays unmodulated, as the cached keys and values must."""
+    bundle = random_bundle(seed=1, text_dim=TINY_TEXT_DIM, layers=2, condition_modulation=True)
+    errors = export_graphs(bundle, tmp_path)
+    assert all(error <= PARITY_ATOL for error in errors.values()), errors
+    assert all(error <= PARITY_ATOL for error in check_graphs(bundle, tmp_path).values())
 
 
 @pytest.mark.parametrize(

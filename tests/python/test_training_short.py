@@ -307,6 +307,16 @@ def test_cli_train_checkpoints_and_resumes(tmp_path: Path) -> None:
     name = next(iter(small["ema"]))
     start = small["ema"][name]
     assert torch.allclose(tuned["model"][name], start, atol=0.05)
+    # add_modulation: the same fine-tune with condition modulation added (at zero).
+    grown_cfg = {**tune_cfg, "run_dir": str(tmp_path / "grown"), "add_modulation": True}
+    grown_path = tmp_path / "grown.yaml"
+    grown_path.write_text(yaml.safe_dump(grown_cfg))
+    assert cli_main(["train", "denoiser", "--config", str(grown_path), "--quiet"]) == 0
+    grown = torch.load(tmp_path / "grown" / "final.pt", weights_only=False)
+    assert grown["denoiser_config"]["condition_modulation"] is True
+    assert not full["denoiser_config"].get("condition_modulation", False)
+    modulation = [key for key in grown["model"] if ".modulation." in key]
+    assert modulation and all(key not in full["model"] for key in modulation)
 
 
 def test_motion_difference_error_sees_a_seam_that_positions_hide() -> None:

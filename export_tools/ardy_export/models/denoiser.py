@@ -52,6 +52,8 @@ from torch import Tensor, nn
 
 from ardy_export.models.layers import (
     MASKED,
+    ConditionModulation,
+    Modulation,
     TransformerStack,
     attention_bias,
     sinusoidal_encoding,
@@ -79,6 +81,11 @@ class DenoiserConfig:
     # being written into the root) or "full" (root and body goals, so the clean root goal is
     # also a separate, linearly readable input).
     window_goal_input: str = "full"
+    # Every layer's attention and feed-forward of the step, text, window and future tokens
+    # shifted, scaled and gated from the step and text tokens (``ConditionModulation``), as
+    # well as the text being one token among the others. History tokens are never
+    # modulated, so their keys and values stay independent of the step and the text.
+    condition_modulation: bool = False
 
     @property
     def window_goal_dim(self) -> int:
@@ -139,7 +146,20 @@ class _Stage(nn.Module):
         self.future_proj = nn.Linear(2 * c.goal_dim, w)
         self.transformer = TransformerStack(w, c.layers, c.heads, w * c.ff_mult)
         self.head = nn.Linear(w, out_dim)
+        self.modulation = ConditionModulation(w, c.layers) if c.condition_modulation else None
         nn.init.normal_(self.null_text, std=0.02)
+
+    def _modulations(self, x: Tensor, h_tokens: int) -> list[Modulation] | None:
+        """Every layer's modulation from the embedded step and text tokens (``x``'s first
+        two), with the ``h_tokens`` history tokens after them left unmodulated."""
+        if self.modulation is None:
+            return None
+        condition = x[:, 0] + x[:, 1]
+        if h_tokens == 0:
+            return self.modulation(condition)
+        weight = torch.ones(x.shape[1], dtype=x.dtype, device=x.device)
+        weight[2 : 2 + h_tokens] = 0.0
+        return self.modulation(condition, weight)
 
     def _embed(
         self,
@@ -204,7 +224,7 @@ class _Stage(nn.Module):
             is_hist = (idx >= 2) & (idx < 2 + h_tokens)
             forbidden = is_hist[:, None] & ~is_hist[None, :]
             allowed = allowed & ~forbidden[None, :, :]
-        y = self.transformer(x, attention_bias(allowed))
+        y = self.transformer(x, attention_bias(allowed), None, self._modulations(x, h_tokens))
         window = y[:, 2 + h_tokens : 2 + h_tokens + c_tokens]
         return self.head(window)
 
@@ -278,7 +298,7 @@ class _Stage(nn.Module):
             (history_keys_values[:, layer, 0], history_keys_values[:, layer, 1])
             for layer in range(self.config.layers)
         ]
-        y = self.transformer(x, bias, prefixes)
+        y = self.transformer(x, bias, prefixes, self._modulations(x, 0))
         return self.head(y[:, 2 : 2 + c_tokens])
 
     def _require_history_self_only(self) -> None:
@@ -303,12 +323,14 @@ class Denoiser(nn.Module):
     def stages(self) -> list[_Stage]:
         return [self.root_stage, self.body_stage] if self.config.two_stage else [self.joint_stage]
 
-    def load_shallower(self, state: Mapping[str, Tensor]) -> int:
-        """Load a trained denoiser of the same sizes but fewer transformer layers per stage:
-        its layers come first and the added ones start as the identity, so this model
+    def load_grown(self, state: Mapping[str, Tensor]) -> int:
+        """Load a trained denoiser of the same sizes that this one grows: fewer transformer
+        layers per stage, or no condition modulation, or both. Its layers come first; the
+        added layers start as the identity and the added modulation at zero, so this model
         computes what that one did and training goes on from there. Returns the layers
         loaded per stage."""
         layer_key = re.compile(r"\.transformer\.layers\.(\d+)\.")
+        modulation_key = re.compile(r"\.modulation\.")
         loaded = 1 + max(
             (int(m.group(1)) for key in state if (m := layer_key.search(key))), default=-1
         )
@@ -318,16 +340,21 @@ class Denoiser(nn.Module):
             )
         missing, unexpected = self.load_state_dict(state, strict=False)
         added = [
-            key for key in missing if (m := layer_key.search(key)) and int(m.group(1)) >= loaded
+            key
+            for key in missing
+            if ((m := layer_key.search(key)) and int(m.group(1)) >= loaded)
+            or modulation_key.search(key)
         ]
         if unexpected or len(added) != len(missing):
             raise ValueError(
-                "the checkpoint differs from this denoiser in more than its layer count: "
-                f"missing {sorted(set(missing) - set(added))[:3]}, unexpected {unexpected[:3]}"
+                "the checkpoint differs from this denoiser in more than its layer count and "
+                f"modulation: missing {sorted(set(missing) - set(added))[:3]}, "
+                f"unexpected {unexpected[:3]}"
             )
         for stage in self.stages:
             for layer in stage.transformer.layers[loaded:]:
                 layer.zero_residual()
+        # A modulation not in the checkpoint keeps its zero start (ConditionModulation).
         return loaded
 
     def forward(

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import cast
 
 import torch
 import torch.nn.functional as F
@@ -54,6 +55,11 @@ def attention_bias(allowed: Tensor) -> Tensor:
 # history): two tensors [B, heads, S, head_dim], put before the keys of the call's own tokens.
 KeysValues = tuple[Tensor, Tensor]
 
+# Per-token modulation of one layer (``ConditionModulation``): shift, scale and gate of the
+# attention input and output, then of the feed-forward's, six tensors [B, S or 1, W]; all
+# zero is the unmodulated layer.
+Modulation = tuple[Tensor, Tensor, Tensor, Tensor, Tensor, Tensor]
+
 
 class SelfAttention(nn.Module):
     def __init__(self, width: int, heads: int) -> None:
@@ -96,9 +102,19 @@ class EncoderLayer(nn.Module):
         self.norm2 = nn.LayerNorm(width)
         self.ff = nn.Sequential(nn.Linear(width, ff_width), nn.GELU(), nn.Linear(ff_width, width))
 
-    def forward(self, x: Tensor, bias: Tensor, prefix: KeysValues | None = None) -> Tensor:
-        x = x + self.attn(self.norm1(x), bias, prefix)
-        return x + self.ff(self.norm2(x))
+    def forward(
+        self,
+        x: Tensor,
+        bias: Tensor,
+        prefix: KeysValues | None = None,
+        modulation: Modulation | None = None,
+    ) -> Tensor:
+        if modulation is None:
+            x = x + self.attn(self.norm1(x), bias, prefix)
+            return x + self.ff(self.norm2(x))
+        shift1, scale1, gate1, shift2, scale2, gate2 = modulation
+        x = x + (1.0 + gate1) * self.attn(self.norm1(x) * (1.0 + scale1) + shift1, bias, prefix)
+        return x + (1.0 + gate2) * self.ff(self.norm2(x) * (1.0 + scale2) + shift2)
 
     def zero_residual(self) -> None:
         """Make the layer the identity (attention and feed-forward add zero), so a layer
@@ -124,11 +140,21 @@ class TransformerStack(nn.Module):
         self.norm = nn.LayerNorm(width)
 
     def forward(
-        self, x: Tensor, bias: Tensor, prefixes: Sequence[KeysValues] | None = None
+        self,
+        x: Tensor,
+        bias: Tensor,
+        prefixes: Sequence[KeysValues] | None = None,
+        modulations: Sequence[Modulation] | None = None,
     ) -> Tensor:
-        """``prefixes``: one ``prefix`` per layer (``SelfAttention.forward``), or none."""
+        """``prefixes``: one ``prefix`` per layer (``SelfAttention.forward``), or none;
+        ``modulations``: one per layer (``EncoderLayer.forward``), or none."""
         for index, layer in enumerate(self.layers):
-            x = layer(x, bias, None if prefixes is None else prefixes[index])
+            x = layer(
+                x,
+                bias,
+                None if prefixes is None else prefixes[index],
+                None if modulations is None else modulations[index],
+            )
         return self.norm(x)
 
     def keys_values(self, x: Tensor, bias: Tensor) -> list[KeysValues]:
@@ -145,3 +171,26 @@ class TransformerStack(nn.Module):
                 x, keys_values = layer.forward_keeping_keys_values(x, bias)
                 out.append(keys_values)
         return out
+
+
+class ConditionModulation(nn.Module):
+    """Shift, scale and gate of every layer's attention and feed-forward from one
+    conditioning vector per row (DiT's adaLN, as deltas: ``(1 + scale)``, ``(1 + gate)``).
+    The projection starts at zero, so a stack given these modulations computes what it did
+    without them until training moves them."""
+
+    def __init__(self, width: int, layers: int) -> None:
+        super().__init__()
+        self.layers = layers
+        self.proj = nn.Linear(width, 6 * layers * width)
+        nn.init.zeros_(self.proj.weight)
+        nn.init.zeros_(self.proj.bias)
+
+    def forward(self, condition: Tensor, token_weight: Tensor | None = None) -> list[Modulation]:
+        """``condition`` [B, W] -> one modulation per layer, each part [B, 1, W], or
+        [B, S, W] times ``token_weight`` [S] (0: that token is left unmodulated)."""
+        parts = self.proj(F.silu(condition)).unsqueeze(1)
+        if token_weight is not None:
+            parts = parts * token_weight[None, :, None]
+        chunks = parts.chunk(6 * self.layers, dim=-1)
+        return [cast(Modulation, tuple(chunks[6 * i : 6 * i + 6])) for i in range(self.layers)]

@@ -37,8 +37,10 @@ def random_bundle(
     diffusion_steps: int = 10,
     two_stage: bool = True,
     text_dim: int = 384,
+    condition_modulation: bool = False,
 ) -> ModelBundle:
-    """A bundle with random weights and synthetic statistics; deterministic for a seed."""
+    """A bundle with random weights and synthetic statistics; deterministic for a seed. A
+    condition modulation gets random weights too (a new one starts at zero, a no-op)."""
     torch.manual_seed(seed)
     tcfg = TokenizerConfig(
         body_dim=L.BODY_DIM,
@@ -70,8 +72,12 @@ def random_bundle(
         ff_mult=2,
         two_stage=two_stage,
         text_dim=text_dim,
+        condition_modulation=condition_modulation,
     )
     den = Denoiser(dcfg)
+    for stage in den.stages:
+        if stage.modulation is not None:
+            torch.nn.init.normal_(stage.modulation.proj.weight, std=0.1)
     rng = np.random.default_rng(seed)
     return ModelBundle(
         tokenizer=tok.eval(),

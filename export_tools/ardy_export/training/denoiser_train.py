@@ -149,17 +149,20 @@ def _train(
         latent_dim=tokenizer.config.latent_dim,
         text_dim=adapters.TEXT_DIM,
     )
-    # grow_layers: init_from's layers first, then identity layers up to this many per stage
-    # (Denoiser.load_shallower): a deeper model that starts from what the trained one does.
+    # grow_layers: init_from's layers first, then identity layers up to this many per stage;
+    # add_modulation: condition modulation added at zero (Denoiser.load_grown): a larger
+    # model that starts from what the trained one does.
     grow_layers = config.get("grow_layers")
     if grow_layers is not None:
         model_cfg["layers"] = int(grow_layers)
+    if config.get("add_modulation"):
+        model_cfg["condition_modulation"] = True
     dcfg = DenoiserConfig.from_dict(model_cfg)
     schedule = DiffusionSchedule.cosine(dcfg.diffusion_steps)
     model = Denoiser(dcfg)
     ema = EMA(model, settings.ema_decay)
     if init is not None:
-        model.load_shallower(init["ema"])
+        model.load_grown(init["ema"])
         ema.model.load_state_dict(model.state_dict())
     if ckpt is not None:
         model.load_state_dict(ckpt["model"])
