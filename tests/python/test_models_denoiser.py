@@ -286,3 +286,22 @@ def test_modulation_added_to_a_trained_denoiser_starts_at_zero_and_trains() -> N
         after = modulated(*other_text) - plain(*other_text)
     assert float(before.abs().max()) > 1e-3
     assert not torch.allclose(before, after, atol=1e-4)
+
+
+def test_lr_scale_trains_named_parameters_at_a_multiple_of_the_learning_rate() -> None:
+    """train.lr_scale: the modulation's parameters at 10x, the rest (and the groups'
+    weight decay) as without it; a part no parameter has is refused by name."""
+    from ardy_export.training.common import TrainSettings, make_optimizer
+
+    den = _denoiser(modulation=True)
+    plain_opt, _ = make_optimizer(den, TrainSettings(lr=1e-4))
+    assert len(plain_opt.param_groups) == 2
+    settings = TrainSettings(lr=1e-4, extra={"lr_scale": {"modulation": 10}})
+    opt, _ = make_optimizer(den, settings)
+    rates = {id(p): g["initial_lr"] for g in opt.param_groups for p in g["params"]}
+    for name, param in den.named_parameters():
+        expected = 1e-3 if ".modulation." in name else 1e-4
+        assert rates[id(param)] == pytest.approx(expected), name
+    assert sum(len(g["params"]) for g in opt.param_groups) == len(list(den.parameters()))
+    with pytest.raises(ValueError, match="'no_such_part'"):
+        make_optimizer(den, TrainSettings(extra={"lr_scale": {"no_such_part": 2}}))

@@ -155,15 +155,37 @@ def warmup_cosine(step: int, settings: TrainSettings) -> float:
 def make_optimizer(
     model: nn.Module, settings: TrainSettings
 ) -> tuple[torch.optim.Optimizer, torch.optim.lr_scheduler.LambdaLR]:
-    decay, no_decay = [], []
+    """AdamW with weight decay on matrices only, under the warmup-cosine schedule.
+    ``train.lr_scale`` ({name part: factor}) trains the parameters whose names contain a
+    part at that multiple of the learning rate (the first part that matches), e.g. a part
+    just added to a trained model so that it catches up within a short run."""
+    scales = {
+        str(part): float(factor) for part, factor in settings.extra.get("lr_scale", {}).items()
+    }
+    groups: dict[tuple[bool, float], list[nn.Parameter]] = {}
+    used: set[str] = set()
     for name, param in model.named_parameters():
         if not param.requires_grad:
             continue
-        (no_decay if param.dim() < 2 or "embedding" in name else decay).append(param)
+        part = next((part for part in scales if part in name), None)
+        if part is not None:
+            used.add(part)
+        decays = not (param.dim() < 2 or "embedding" in name)
+        groups.setdefault((decays, scales[part] if part else 1.0), []).append(param)
+    unknown = sorted(set(scales) - used)
+    if unknown:
+        raise ValueError(f"train.lr_scale: no trainable parameter's name contains {unknown[0]!r}")
     opt = torch.optim.AdamW(
         [
-            {"params": decay, "weight_decay": settings.weight_decay},
-            {"params": no_decay, "weight_decay": 0.0},
+            {
+                "params": params,
+                "weight_decay": settings.weight_decay if decays else 0.0,
+                "lr": settings.lr * scale,
+            }
+            # Decayed first, then by scale: without lr_scale, the two groups of earlier runs.
+            for (decays, scale), params in sorted(
+                groups.items(), key=lambda g: (not g[0][0], g[0][1])
+            )
         ],
         lr=settings.lr,
         betas=(settings.beta1, settings.beta2),
