@@ -30,7 +30,7 @@ import onnxruntime as ort
 import torch
 from onnx import numpy_helper
 
-from ardy_export.models.denoiser import DenoiserConfig
+from ardy_export.models.denoiser import Denoiser, DenoiserConfig
 from ardy_export.models.graphs import DENOISER_MODULE_INPUTS, example_denoiser_inputs
 from ardy_export.models.tokenizer import TOKENIZER_PARTS
 from ardy_export.package import run_denoiser_graphs
@@ -172,6 +172,10 @@ def recover_checkpoint(package: Path, base_checkpoint: Path, out: Path) -> dict[
     for graph in ("history.onnx", "goals.onnx", "denoiser.onnx"):
         if (package / graph).is_file():
             found.update(graph_weights(package / graph))
+    if not bundle.config.condition_modulation and any(".modulation." in n for n in found):
+        # Trained with condition modulation added to a base without it (add_modulation).
+        config = DenoiserConfig.from_dict({**bundle.config.to_dict(), "condition_modulation": True})
+        bundle.denoiser = Denoiser(config).eval()
     state = bundle.denoiser.state_dict()
     prefixes = ["root_stage", "body_stage"] if bundle.config.two_stage else ["joint_stage"]
     token_dim = bundle.config.token_dim
@@ -243,6 +247,7 @@ def recover_checkpoint(package: Path, base_checkpoint: Path, out: Path) -> dict[
         key: value for key, value in base.items() if key not in ("model", "optimizer", "rng")
     }
     recovered["ema"] = weights
+    recovered["denoiser_config"] = bundle.config.to_dict()
     recovered["tokenizer"] = tokenizer_state
     recovered["sampling_defaults"] = defaults
     recovered["recovered_from"] = {

@@ -87,3 +87,34 @@ def test_the_decoder_weights_come_from_the_package_not_the_base(tmp_path: Path) 
         )
     changed = [k for k in reference if not torch.equal(recovered[k], reference[k])]
     assert sorted(changed) == sorted(k.removeprefix("tokenizer.") for k in shift)
+
+
+def test_a_package_trained_with_modulation_added_recovers_from_a_base_without_it(
+    tmp_path: Path,
+) -> None:
+    """add_modulation grows a base without condition modulation; its package's graphs hold
+    the modulation's weights, and the same base recovers them (the checkpoint says so)."""
+    import shutil
+
+    from ardy_export.package import export_graphs
+
+    bundle = ModelBundle.from_checkpoint(BASE)
+    config = DenoiserConfig.from_dict({**bundle.config.to_dict(), "condition_modulation": True})
+    grown = Denoiser(config)
+    grown.load_grown(bundle.denoiser.state_dict())
+    torch.manual_seed(3)
+    for stage in grown.stages:
+        assert stage.modulation is not None
+        torch.nn.init.normal_(stage.modulation.proj.weight, std=0.02)
+        torch.nn.init.normal_(stage.modulation.proj.bias, std=0.02)
+    bundle.denoiser = grown.eval()
+    package = tmp_path / "package"
+    shutil.copytree(PACKAGE, package)
+    export_graphs(bundle, package)
+    out = tmp_path / "recovered.pt"
+    errors = recover_checkpoint(package, BASE, out)
+    assert max(errors.values()) <= 1e-4
+    recovered = ModelBundle.from_checkpoint(out)
+    assert recovered.config.condition_modulation
+    for name, value in grown.state_dict().items():
+        assert torch.allclose(recovered.denoiser.state_dict()[name], value, atol=1e-6), name
