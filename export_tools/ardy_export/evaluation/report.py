@@ -850,7 +850,7 @@ def _reading_lines(results: dict[str, Any]) -> list[str]:
             "training text embeddings blended and offset toward the held-out paraphrases' "
             "distance (`stage23`, `stage23_plain`) lowered both a little; the step and text "
             "given to every layer as a shift, scale and gate as well as a token (condition "
-            "modulation, `stage25`, `stage25_plain`) moved neither beyond the spread. "
+            "modulation, `stage25` to `stage25_lr3`) moved neither beyond the spread. "
             "What would close it: a larger denoiser trained far longer than a CPU session "
             "allows (GPU time), more takes of the rare contents, and training that varies "
             "the action and the style of a prompt independently"
