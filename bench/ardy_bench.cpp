@@ -268,6 +268,8 @@ double denoiser_row_flops(const ardy::ModelPackage& p, size_t history, size_t fu
   const double queries = 2.0 + c + f + (uncached ? h : 0.0);
   double per_stage = transformer_flops(s, s.layers, queries, queries + (uncached ? 0.0 : h));
   per_stage += 2.0 * w * (c * d + static_cast<double>(p.text_embedding_size()));  // tokens, text
+  // The modulation: one projection of the row's condition to 6 vectors per layer.
+  if (s.condition_modulation) per_stage += 2.0 * w * 6.0 * static_cast<double>(s.layers) * w;
   if (uncached) per_stage += 2.0 * w * h * d;
   double flops = static_cast<double>(s.stages()) * per_stage + 2.0 * c * w * d;  // + the heads (root and latent)
   if (uncached) flops += goal_projection_flops(p, future);

@@ -678,6 +678,9 @@ void ModelPackage::Impl::parse(const Manifest& m) {
   denoiser_sizes.layers = m.size("denoiser.layers", 1, 1024);
   denoiser_sizes.heads = m.size("denoiser.heads", 1, 1024);
   denoiser_sizes.ff_mult = m.size("denoiser.ff_mult", 1, 1024);
+  if (m.has("denoiser.condition_modulation")) {
+    denoiser_sizes.condition_modulation = m.boolean("denoiser.condition_modulation");
+  }
   const std::string goal_input = m.string("denoiser.window_goal_input");
   if (goal_input == "full") {
     denoiser_sizes.window_goal_dim = tokens.goal_dim;

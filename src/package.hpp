@@ -69,6 +69,10 @@ struct DenoiserSizes {
   size_t heads = 0;
   size_t ff_mult = 0;
   size_t window_goal_dim = 0;  // goal entries beside each window token: goal_dim ("full") or its body part ("body")
+  // Every layer's step, text, window and future tokens also shifted, scaled and
+  // gated from the step and text (inside denoiser.onnx; the graphs' inputs and
+  // outputs are the same either way). Optional in model.json, false when absent.
+  bool condition_modulation = false;
   size_t stages() const { return two_stage ? 2 : 1; }
   size_t head_dim() const { return width / heads; }
   size_t cached_layers() const { return stages() * layers; }

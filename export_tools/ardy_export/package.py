@@ -426,6 +426,8 @@ def model_json(
             "layers": int(dc.layers),
             "heads": int(dc.heads),
             "ff_mult": int(dc.ff_mult),
+            # Written only when set, so packages without it keep their bytes.
+            **({"condition_modulation": True} if dc.condition_modulation else {}),
         },
         "tokenizer": {"root_input": tc.root_input},
         "text": text,

@@ -116,6 +116,10 @@ TEST_CASE("the tiny package loads from its folder with every value from model.js
   CHECK(package.denoiser().find_input("window_goal") == nullptr);  // the goals graph reads the goals
   const ardy::DenoiserSizes& sizes = package.denoiser_sizes();
   CHECK(sizes.two_stage);
+  CHECK_FALSE(sizes.condition_modulation);  // absent from the tiny package's model.json
+  CHECK(load(with_model_json([](json& d) { d["denoiser"]["condition_modulation"] = true; }))
+            .denoiser_sizes()
+            .condition_modulation);
   CHECK(sizes.width % sizes.heads == 0);
   CHECK(package.history().outputs()[0].shape ==
         std::vector<int64_t>{-1, int64_t(2 * sizes.layers), 2, int64_t(sizes.heads), -1, int64_t(sizes.head_dim())});
@@ -219,6 +223,8 @@ TEST_CASE("model.json fields are validated with the field, the expected and the 
              ContainsSubstring("denoiser.heads is 3, expected a divisor of denoiser.width"));
   CHECK_THAT(load_error([](json& d) { d["denoiser"]["history_self_only"] = false; }),
              ContainsSubstring("denoiser.history_self_only is false, expected true"));
+  CHECK_THAT(load_error([](json& d) { d["denoiser"]["condition_modulation"] = "yes"; }),
+             ContainsSubstring("denoiser.condition_modulation must be true or false, found \"yes\""));
   CHECK_THAT(load_error([](json& d) { d["denoiser"].erase("layers"); }),
              ContainsSubstring("missing field denoiser.layers"));
   CHECK_THAT(load_error([](json& d) { d["format"] = "something-else"; }),

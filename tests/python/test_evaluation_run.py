@@ -237,6 +237,17 @@ def test_report_lists_every_section_and_marks_missed_bars(tmp_path: Path) -> Non
     assert "paraphrases" not in text.split("## Acceptance bars")[1].split("##")[0]
     for png in ("response.png", "stability.png", "contact_sheet.png"):
         assert (tmp_path / png).stat().st_size > 5000
+    # The scale line names the denoiser's sizes from model.json, modulation included.
+    results["model"]["architecture"] = {
+        "denoiser": {"layers": 3, "width": 128, "condition_modulation": True},
+        "tokens": {"patch": 4},
+        "text_encoder": "all-MiniLM-L6-v2",
+    }
+    text = report.write_report(results, tmp_path).read_text()
+    assert (
+        "(3 layers of width 128 with condition modulation, 4-frame patches, text by "
+        "all-MiniLM-L6-v2)" in text
+    )
 
 
 def test_response_summary_counts_pairs_that_never_respond() -> None:

@@ -33,6 +33,7 @@ from ardy_export.package import (
     PackageError,
     check_graphs,
     export_graphs,
+    model_json,
     run_denoiser_graphs,
 )
 from ardy_export.sampling.sampler import PromptEvent, RolloutConfig, rollout
@@ -125,6 +126,13 @@ def test_graphs_of_a_denoiser_with_condition_modulation_match_pytorch(tmp_path: 
     errors = export_graphs(bundle, tmp_path)
     assert all(error <= PARITY_ATOL for error in errors.values()), errors
     assert all(error <= PARITY_ATOL for error in check_graphs(bundle, tmp_path).values())
+    # model.json says so; a package without it keeps its model.json as before.
+    committed = json.loads((COMMITTED / "model.json").read_text())
+    text = committed["text"]
+    (tmp_path / text["graph"]).write_bytes((COMMITTED / text["graph"]).read_bytes())
+    described = model_json(bundle, tmp_path, text=text, provenance={})
+    assert described["denoiser"]["condition_modulation"] is True
+    assert "condition_modulation" not in committed["denoiser"]
 
 
 @pytest.mark.parametrize(

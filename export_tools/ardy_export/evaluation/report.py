@@ -798,8 +798,9 @@ def _reading_lines(results: dict[str, Any]) -> list[str]:
     )
     if denoiser:
         scale += (
-            f" ({denoiser.get('layers', '?')} layers of width {denoiser.get('width', '?')}, "
-            f"{tokens.get('patch', '?')}-frame patches, text by "
+            f" ({denoiser.get('layers', '?')} layers of width {denoiser.get('width', '?')}"
+            + (" with condition modulation" if denoiser.get("condition_modulation") else "")
+            + f", {tokens.get('patch', '?')}-frame patches, text by "
             f"{arch.get('text_encoder') or '?'})"
         )
     if hours is not None:
@@ -935,17 +936,18 @@ def _reading_lines(results: dict[str, Any]) -> list[str]:
             "more often in training, a tripled window-goal term and stronger constraint "
             "guidance; each moved them by 0.02 to 0.06 m, and the last two made the feet "
             "slide more on a steered path. The tripled goal term, then more contact-aware "
-            "training (`stage12`, and the shipped stage 13 after it), reached the bar with "
+            "training (`stage12`, and stage 13 after it), reached the bar with "
             "little room. A reach term (a window must end as close to a waypoint just past "
             "its end as the data's window did; `stage18`, `stage19`) brought them well under "
             "the bar, but the model learned to lunge in a window's last frames, and text-only "
             "skate went over its bar; asked of the whole window's path instead (`stage20`), "
             "it stopped the lunge and did not move the waypoints; so did the last-frame "
             "term beside a limit on every window's last frames (`stage24`), whose feet "
-            "slid more too. The plain-draw continuation with condition modulation "
-            "(`stage25_plain`) met them with more room on two seed sets and slid less on a "
-            "steered path, at a larger keyframe error still under its bar: the next "
-            "candidate to ship. What would close the gap "
+            "slid more too. The shipped model, stage 13 continued on the plain draw with "
+            "condition modulation (`stage25_plain` in the packages tried), met them with "
+            "more room on two seed sets and slid less on a steered path, at a larger "
+            "keyframe error still under its bar (see the previous package). What would "
+            "close the gap "
             "to the paper's: a larger denoiser trained far longer (GPU time), whose windows "
             "head for goals beyond their end as the paper's do."
         )
