@@ -946,8 +946,9 @@ def _reading_lines(results: dict[str, Any]) -> list[str]:
             "slid more too. The shipped model, stage 13 continued on the plain draw with "
             "condition modulation (`stage25_plain` in the packages tried), met them with "
             "more room on two seed sets and slid less on a steered path, at a larger "
-            "keyframe error still under its bar (see the previous package). What would "
-            "close the gap "
+            "keyframe error still under its bar (see the previous package); the same "
+            "config trained from another seed (`stage25_plain_seed1`) did neither, so that "
+            "gain is one training run's, not the modulation's. What would close the gap "
             "to the paper's: a larger denoiser trained far longer (GPU time), whose windows "
             "head for goals beyond their end as the paper's do."
         )
