@@ -3,6 +3,7 @@ graphs, checked against the graphs; a base of another architecture is refused.""
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -10,6 +11,7 @@ import pytest
 import torch
 
 from ardy_export.models.denoiser import Denoiser, DenoiserConfig
+from ardy_export.package import export_graphs
 from ardy_export.recover import RecoverError, probed_goal_weights, recover_checkpoint
 from ardy_export.sampling.sampler import ModelBundle
 
@@ -94,10 +96,6 @@ def test_a_package_trained_with_modulation_added_recovers_from_a_base_without_it
 ) -> None:
     """add_modulation grows a base without condition modulation; its package's graphs hold
     the modulation's weights, and the same base recovers them (the checkpoint says so)."""
-    import shutil
-
-    from ardy_export.package import export_graphs
-
     bundle = ModelBundle.from_checkpoint(BASE)
     config = DenoiserConfig.from_dict({**bundle.config.to_dict(), "condition_modulation": True})
     grown = Denoiser(config)
