@@ -317,6 +317,21 @@ def test_cli_train_checkpoints_and_resumes(tmp_path: Path) -> None:
     assert not full["denoiser_config"].get("condition_modulation", False)
     modulation = [key for key in grown["model"] if ".modulation." in key]
     assert modulation and all(key not in full["model"] for key in modulation)
+    # A fine-tune of the modulated model names only init_from; resumed, it keeps the
+    # modulation (the sizes come from its own checkpoint, not the config's model section).
+    again_cfg = {
+        **tune_cfg,
+        "run_dir": str(tmp_path / "again"),
+        "init_from": str(tmp_path / "grown" / "final.pt"),
+    }
+    again_path = tmp_path / "again.yaml"
+    again_path.write_text(yaml.safe_dump(again_cfg))
+    assert cli_main(["train", "denoiser", "--config", str(again_path), "--quiet"]) == 0
+    resume_args = ["--steps", "3", "--resume", "--quiet"]
+    assert cli_main(["train", "denoiser", "--config", str(again_path), *resume_args]) == 0
+    again = torch.load(tmp_path / "again" / "final.pt", weights_only=False)
+    assert again["step"] == 3
+    assert again["denoiser_config"]["condition_modulation"] is True
 
 
 def test_motion_difference_error_sees_a_seam_that_positions_hide() -> None:

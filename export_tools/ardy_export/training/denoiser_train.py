@@ -141,7 +141,14 @@ def _train(
         ckpt = torch.load(latest, map_location="cpu", weights_only=False)
         lmean = np.asarray(ckpt["latent_stats"]["mean"], np.float32)
         lstd = np.asarray(ckpt["latent_stats"]["std"], np.float32)
-    model_cfg = dict(config.get("model", {}) if init is None else init["denoiser_config"])
+    # The sizes: a resumed run's own (its config may name only init_from, whose sizes it
+    # took, and init_from is not read again on resume), else init_from's, else the config's.
+    if ckpt is not None:
+        model_cfg = dict(ckpt["denoiser_config"])
+    elif init is not None:
+        model_cfg = dict(init["denoiser_config"])
+    else:
+        model_cfg = dict(config.get("model", {}))
     model_cfg.update(
         feature_dim=L.FEATURE_SIZE,
         root_dim=L.ROOT_DIM,
