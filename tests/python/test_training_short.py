@@ -307,6 +307,18 @@ def test_cli_train_checkpoints_and_resumes(tmp_path: Path) -> None:
     name = next(iter(small["ema"]))
     start = small["ema"][name]
     assert torch.allclose(tuned["model"][name], start, atol=0.05)
+    # blend-checkpoints: the slim start and its fine-tune averaged a quarter of the way.
+    blend = tmp_path / "blend.pt"
+    blend_args = ["blend-checkpoints", "--first", str(slim), "--out", str(blend)]
+    tuned_path = str(tmp_path / "tune" / "final.pt")
+    assert cli_main([*blend_args, "--second", tuned_path, "--weight", "0.25"]) == 0
+    blended = torch.load(blend, weights_only=False)
+    assert "optimizer" not in blended and blended["blended_from"]["weight"] == 0.25
+    for key, value in small["ema"].items():
+        expected = 0.75 * value + 0.25 * tuned["ema"][key]
+        assert torch.allclose(blended["ema"][key], expected, atol=1e-6)
+    assert any(not torch.equal(blended["ema"][k], v) for k, v in small["ema"].items())
+    assert cli_main([*blend_args, "--second", tuned_path, "--weight", "1.5"]) == 1
     # add_modulation: the same fine-tune with condition modulation added (at zero).
     grown_cfg = {**tune_cfg, "run_dir": str(tmp_path / "grown"), "add_modulation": True}
     grown_path = tmp_path / "grown.yaml"
@@ -317,6 +329,10 @@ def test_cli_train_checkpoints_and_resumes(tmp_path: Path) -> None:
     assert not full["denoiser_config"].get("condition_modulation", False)
     modulation = [key for key in grown["model"] if ".modulation." in key]
     assert modulation and all(key not in full["model"] for key in modulation)
+    # A modulated model and one without are not one architecture: refused, nothing written.
+    grown_args = ["--second", str(tmp_path / "grown" / "final.pt"), "--out", str(tmp_path / "x")]
+    assert cli_main(["blend-checkpoints", "--first", str(slim), *grown_args]) == 1
+    assert not (tmp_path / "x").exists()
     # A fine-tune of the modulated model names only init_from; resumed, it keeps the
     # modulation (the sizes come from its own checkpoint, not the config's model section).
     again_cfg = {

@@ -95,6 +95,22 @@ def _slim(args: argparse.Namespace) -> int:
     return 0
 
 
+def _blend(args: argparse.Namespace) -> int:
+    from ardy_export.training.common import blend_checkpoints
+
+    for path in (args.first, args.second):
+        if not Path(path).is_file():
+            print(f"ardy-export blend-checkpoints: no checkpoint at {path}", file=sys.stderr)
+            return 1
+    try:
+        out = blend_checkpoints(Path(args.first), Path(args.second), args.weight, Path(args.out))
+    except ValueError as error:
+        print(f"ardy-export blend-checkpoints: {error}", file=sys.stderr)
+        return 1
+    print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB)")
+    return 0
+
+
 def _attach_tokenizer(args: argparse.Namespace) -> int:
     from ardy_export.training.tokenizer_train import attach_tokenizer
 
@@ -144,6 +160,21 @@ def add_training_commands(commands: argparse._SubParsersAction) -> None:  # type
     slim.add_argument("--checkpoint", required=True, help="denoiser checkpoint (.pt)")
     slim.add_argument("--out", required=True, help="slim checkpoint to write")
     slim.set_defaults(handler=_slim)
+
+    blend = commands.add_parser(
+        "blend-checkpoints",
+        help="average two denoiser checkpoints weight by weight (fine-tunes of one model)",
+        description="Writes the second checkpoint with every EMA weight (1 - w) * first + "
+        "w * second (a slim checkpoint that 'export' and init_from take). Both must share the "
+        "architecture and the tokenizer, e.g. two fine-tunes of one ancestor.",
+    )
+    blend.add_argument("--first", required=True, help="denoiser checkpoint (.pt), weight 1 - w")
+    blend.add_argument("--second", required=True, help="denoiser checkpoint (.pt), weight w")
+    blend.add_argument(
+        "--weight", type=float, default=0.5, help="w, in [0, 1] (default: %(default)s)"
+    )
+    blend.add_argument("--out", required=True, help="checkpoint to write")
+    blend.set_defaults(handler=_blend)
 
     attach = commands.add_parser(
         "attach-tokenizer",

@@ -243,6 +243,44 @@ def slim_checkpoint(path: Path, out: Path) -> Path:
     return out
 
 
+def blend_checkpoints(first: Path, second: Path, weight: float, out: Path) -> Path:
+    """Writes ``second`` with every EMA weight ``(1 - weight) * first + weight * second``.
+
+    Both must be slim-able denoiser checkpoints of one architecture over one tokenizer
+    (fine-tunes of a common ancestor, where averaging weights trades their strengths: a
+    model soup); anything else is refused before writing. ``blended_from`` records the pair.
+    """
+    if not 0.0 <= weight <= 1.0:
+        raise ValueError(f"weight {weight} is outside [0, 1]")
+    ckpts = [torch.load(path, map_location="cpu", weights_only=False) for path in (first, second)]
+    for path, ckpt in zip((first, second), ckpts, strict=True):
+        if ckpt.get("kind") != "denoiser" or ckpt.get("ema") is None:
+            raise ValueError(f"{path}: not a denoiser checkpoint with EMA weights")
+    base, other = ckpts
+    if base["denoiser_config"] != other["denoiser_config"]:
+        raise ValueError(f"{second}: its denoiser config differs from {first}'s")
+    if base["ema"].keys() != other["ema"].keys():
+        raise ValueError(f"{second}: its weights are named differently from {first}'s")
+    for key, value in base["tokenizer"].items():
+        if not torch.equal(value, other["tokenizer"].get(key, torch.empty(0))):
+            raise ValueError(f"{second}: tokenizer weight {key} differs from {first}'s")
+    blended = {}
+    for key, value in other["ema"].items():
+        if value.shape != base["ema"][key].shape:
+            raise ValueError(
+                f"{second}: weight {key} is {tuple(value.shape)}, {first}'s "
+                f"{tuple(base['ema'][key].shape)}"
+            )
+        blended[key] = (
+            torch.lerp(base["ema"][key], value, weight) if value.is_floating_point() else value
+        )
+    result = {k: v for k, v in other.items() if k not in TRAINING_ONLY_KEYS}
+    result["ema"] = blended
+    result["blended_from"] = {"first": str(first), "second": str(second), "weight": weight}
+    save_checkpoint(out, result)
+    return out
+
+
 def rng_state(rng: np.random.Generator, gen: torch.Generator) -> dict[str, Any]:
     return {
         "numpy": rng.bit_generator.state,
