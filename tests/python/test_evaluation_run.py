@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import json
+import types
 from pathlib import Path
 
 import numpy as np
@@ -141,6 +142,56 @@ def test_constraint_errors_are_zero_for_the_reference_itself() -> None:
         if case.task == "end_effectors":
             # Identity local rotations are not the reference's: a real angle, not a crash.
             assert errors["rotation_error_deg"] > 1.0
+
+
+def test_constraint_section_runs_every_case_under_each_seed_set() -> None:
+    """seed_sets: 3 runs each case three times with seeds a stride apart and reports the
+    mean error beside each set's own (here the fake model is off by 0.1 m per set)."""
+    walk = _walk(8.0)
+
+    class FakeClip:
+        features = walk
+        frames = len(walk)
+        group = ("dataset-2", "walk", "normal")
+        name = "walk"
+
+    (reference,) = {
+        c.reference.tobytes(): c.reference
+        for c in tasks.constraint_cases([FakeClip()], 120, L.FPS, 1, 80)  # type: ignore[list-item]
+        if c.reference is not None
+    }.values()
+    seeds: list[int] = []
+
+    def generate(what: str, jobs: list[Job]) -> list[Generated]:
+        seeds.extend(job.seed for job in jobs)
+        motions = []
+        for job in jobs:
+            positions = positions_from_features(reference).copy()
+            positions[..., 0] += 0.1 * (job.seed // run.SEED_SET_STRIDE)
+            motions.append(_generated(positions))
+        return motions
+
+    ctx = types.SimpleNamespace(
+        config={"constraints": {"clips_per_group": 1, "seed_sets": 3}},
+        clips=[FakeClip()],
+        frames=120,
+        fps=L.FPS,
+        min_frames=80,
+        feet=list(L.FOOT_JOINTS),
+        generate=generate,
+    )
+    out = run.constraints_section(ctx)  # type: ignore[arg-type]
+    assert out["seed_sets"] == 3
+    assert len(seeds) == 3 * len(tasks.CONSTRAINT_TASKS) and len(set(seeds)) == len(seeds)
+    waypoints = out["tasks"]["waypoints"]
+    assert waypoints["count"] == 3
+    assert waypoints["error_m_by_seed_set"] == pytest.approx([0.0, 0.1, 0.2], abs=1e-9)
+    assert waypoints["error_m"] == pytest.approx(0.1, abs=1e-9)
+    # One set (the default): one rollout per case and no per-set figures.
+    ctx.config = {"constraints": {"clips_per_group": 1}}
+    single = run.constraints_section(ctx)  # type: ignore[arg-type]
+    assert single["tasks"]["waypoints"]["count"] == 1
+    assert "error_m_by_seed_set" not in single["tasks"]["waypoints"]
 
 
 def test_report_lists_every_section_and_marks_missed_bars(tmp_path: Path) -> None:
@@ -431,7 +482,7 @@ def test_constraint_errors_by_label_tell_walks_from_standing() -> None:
     assert by_label["dataset-1/bow/normal"]["travel_m"] == pytest.approx(0.0, abs=1e-6)
     row = {"by_label": {**by_label, "dataset-2/wave/normal": {**walked, "travel_m": 0.1}}}
     assert report._travelling_share(row) == (
-        " Of the model's own waypoint error, 44 % is the 1 cases whose real root travels over "
+        " Of the model's own waypoint error, 44 % is the 1 rollouts whose real root travels over "
         "1 m (runs and walks: 0.800 m off on average, the other 2 0.500 m); their in-between "
         "waypoints fall just past a window's end, where the model runs past or lags them "
         "(packages tried)."

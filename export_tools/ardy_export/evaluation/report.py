@@ -244,7 +244,7 @@ def _travelling_share(row: dict[str, Any]) -> str:
 
     share = 100.0 * mean(moving) * cases(moving) / total
     return (
-        f" Of the model's own waypoint error, {share:.0f} % is the {cases(moving)} cases "
+        f" Of the model's own waypoint error, {share:.0f} % is the {cases(moving)} rollouts "
         f"whose real root travels over {_f(TRAVELLING_M, 0)} m (runs and walks: "
         f"{_f(mean(moving))} m off on average, the other {cases(still)} "
         f"{_f(mean(still))} m); their in-between waypoints fall just past a window's end, "
@@ -376,7 +376,25 @@ def _constraint_lines(con: dict[str, Any]) -> list[str]:
             rows,
         ),
         "",
+        *_seed_set_lines(con),
         f"Dataset foot skate on the same crops: {_f(con['dataset_foot_skate'])} m/s.",
+        "",
+    ]
+
+
+def _seed_set_lines(con: dict[str, Any]) -> list[str]:
+    """Each task's error per seed set, when the crops ran under several (empty otherwise)."""
+    sets = int(con.get("seed_sets", 1))
+    spread = [
+        f"{task} {' / '.join(_f(v) for v in row['error_m_by_seed_set'])}"
+        for task, row in con["tasks"].items()
+        if "error_m_by_seed_set" in row
+    ]
+    if sets < 2 or not spread:
+        return []
+    return [
+        f"Every crop ran under {sets} sets of sampler seeds and the errors above are their "
+        f"mean; each set's own error (m): {'; '.join(spread)}.",
         "",
     ]
 
@@ -678,7 +696,12 @@ def _headline(results: dict[str, Any]) -> list[tuple[str, str]]:
         ("response median, all pairs (s)", _median(resp) if resp else "n/a"),
         ("response median, responders (s)", _f(_g(resp, "median_responders"), 2)),
     ]
+    constraints = results.get("constraints")
+    out.append(
+        ("constraint seed sets", str(constraints.get("seed_sets", 1)) if constraints else "n/a")
+    )
     for task, field, name in (
+        ("waypoints", "error_m", "waypoints (m)"),
         ("waypoints", "between_frames_error_m", "waypoints, between frames (m)"),
         ("keyframes", "error_m", "keyframes (m)"),
         ("end_effectors", "error_m", "end effectors (m)"),
@@ -737,7 +760,8 @@ def _tried_lines(
         "",
         "Each column is the `results.json` of `ardy-export eval run` on a candidate package "
         "(`docs/evaluation/tried/NAME.json`), on the same split with the same evaluation as "
-        "the shipped one. What each candidate changed, and why it was not shipped, follows "
+        "the shipped one (constraint figures: the mean over the row *constraint seed sets*). "
+        "What each candidate changed, and why it was not shipped, follows "
         "the table (`docs/evaluation/tried/README.md`).",
         "",
         *_comparison_table(
@@ -858,11 +882,15 @@ def _reading_lines(results: dict[str, Any]) -> list[str]:
             "bows, not with more DDIM steps, stochastic sampling or stronger guidance: from "
             "pure noise its first predictions are the standing mean, though it gives a "
             "half-noised training bow back; fine-tuned on bows alone it bows within 1,200 "
-            "steps. The balanced draw continued until it had drawn as many bows (`stage27`, "
-            "32,000 balanced steps in all) bows too, but both R-precisions came back to where "
+            "steps. Continued until it had drawn about as many bow windows as that fine-tune "
+            "(`stage27`, 32,000 balanced steps in all), the balanced draw made the model bow "
+            "too, but both R-precisions came back to where "
             "the earlier balanced runs stood, not beyond, and it missed the model-only "
             "waypoints by more: at this size a content seen in 1 window of 30 is learned one "
-            "at a time, over tens of thousands of steps. "
+            "at a time, over tens of thousands of steps. Averaging the shipped model's "
+            "weights with those of `stage28` (`stage27` after 3,000 plain-draw steps; "
+            "`stage25_28_blend50`, `stage30`, `stage25_30_blend50`) kept the text gain only "
+            "with rougher motion or, trained smooth again, without the waypoint bar. "
             "What would close it: a larger denoiser trained far longer than a CPU session "
             "allows (GPU time), more takes of the rare contents, and training that varies "
             "the action and the style of a prompt independently"
