@@ -28,6 +28,18 @@ def _walk(seconds: float = 6.0) -> np.ndarray:
     return moved
 
 
+class _FakeClip:
+    """As much of a test clip as constraint cases read."""
+
+    def __init__(
+        self, features: np.ndarray, dataset: str = "dataset-2", content: str = "walk"
+    ) -> None:
+        self.features = features
+        self.frames = len(features)
+        self.group = (dataset, content, "normal")
+        self.name = f"{content}_{len(features)}"
+
+
 def test_canonical_crop_starts_on_the_origin_facing_plus_z() -> None:
     crop = tasks.canonical_crop(_walk(), 10, 60)
     positions = positions_from_features(crop)
@@ -39,14 +51,7 @@ def test_canonical_crop_starts_on_the_origin_facing_plus_z() -> None:
 
 
 def test_constraint_cases_take_their_targets_from_the_crop() -> None:
-    class FakeClip:
-        def __init__(self, features: np.ndarray) -> None:
-            self.features = features
-            self.frames = len(features)
-            self.group = ("dataset-2", "walk", "normal")
-            self.name = f"walk_{len(features)}"
-
-    cases = tasks.constraint_cases([FakeClip(_walk(8.0))], 120, L.FPS, 2, 80)  # type: ignore[list-item]
+    cases = tasks.constraint_cases([_FakeClip(_walk(8.0))], 120, L.FPS, 2, 80)  # type: ignore[list-item]
     assert [c.task for c in cases] == list(tasks.CONSTRAINT_TASKS)
     by_task = {c.task: c for c in cases}
     waypoints = by_task["waypoints"].job.timeline["constraints"]
@@ -59,7 +64,7 @@ def test_constraint_cases_take_their_targets_from_the_crop() -> None:
     assert by_task["keyframes"].job.timeline["prompts"][0]["text"] == "a person walks forward"
     # A clip shorter than the rollout is used whole, down to the evaluator's 4 s; shorter
     # clips are left out. The longest clips come first.
-    short = [FakeClip(_walk(5.0)), FakeClip(_walk(3.0)), FakeClip(_walk(8.0))]
+    short = [_FakeClip(_walk(5.0)), _FakeClip(_walk(3.0)), _FakeClip(_walk(8.0))]
     cases = tasks.constraint_cases(short, 120, L.FPS, 2, 80)  # type: ignore[arg-type]
     assert [c.job.seconds for c in cases] == [6.0] * 4 + [5.0] * 4
     assert tasks.constrained_frames("waypoints", 100, L.FPS) == [40, 80, 99]
@@ -126,15 +131,7 @@ def _generated(positions: np.ndarray) -> Generated:
 
 
 def test_constraint_errors_are_zero_for_the_reference_itself() -> None:
-    walk = _walk(8.0)
-
-    class FakeClip:
-        features = walk
-        frames = len(walk)
-        group = ("dataset-2", "walk", "normal")
-        name = "walk"
-
-    for case in tasks.constraint_cases([FakeClip()], 120, L.FPS, 1, 80):  # type: ignore[list-item]
+    for case in tasks.constraint_cases([_FakeClip(_walk(8.0))], 120, L.FPS, 1, 80):  # type: ignore[list-item]
         assert case.reference is not None
         errors = run.constraint_errors(case, _generated(positions_from_features(case.reference)))
         assert errors["error_m"] == pytest.approx(0.0, abs=1e-9)
@@ -147,17 +144,9 @@ def test_constraint_errors_are_zero_for_the_reference_itself() -> None:
 def test_constraint_section_runs_every_case_under_each_seed_set() -> None:
     """seed_sets: 3 runs each case three times with seeds a stride apart and reports the
     mean error beside each set's own (here the fake model is off by 0.1 m per set)."""
-    walk = _walk(8.0)
-
-    class FakeClip:
-        features = walk
-        frames = len(walk)
-        group = ("dataset-2", "walk", "normal")
-        name = "walk"
-
     (reference,) = {
         c.reference.tobytes(): c.reference
-        for c in tasks.constraint_cases([FakeClip()], 120, L.FPS, 1, 80)  # type: ignore[list-item]
+        for c in tasks.constraint_cases([_FakeClip(_walk(8.0))], 120, L.FPS, 1, 80)  # type: ignore[list-item]
         if c.reference is not None
     }.values()
     seeds: list[int] = []
@@ -173,7 +162,7 @@ def test_constraint_section_runs_every_case_under_each_seed_set() -> None:
 
     ctx = types.SimpleNamespace(
         config={"constraints": {"clips_per_group": 1, "seed_sets": 3}},
-        clips=[FakeClip()],
+        clips=[_FakeClip(_walk(8.0))],
         frames=120,
         fps=L.FPS,
         min_frames=80,
@@ -459,18 +448,15 @@ def test_constraint_errors_by_label_tell_walks_from_standing() -> None:
     still = walk.copy()
     still[:, [0, 2]] = walk[:1, [0, 2]]  # the same body, its root held in place
 
-    def fake(features: np.ndarray, content: str) -> object:
-        class FakeClip:
-            frames = len(features)
-            group = ("dataset-1", content, "normal")
-            name = content
-
-        FakeClip.features = features  # type: ignore[attr-defined]
-        return FakeClip()
-
     cases = [
         c
-        for c in tasks.constraint_cases([fake(walk, "walk"), fake(still, "bow")], 120, L.FPS, 1, 80)  # type: ignore[list-item]
+        for c in tasks.constraint_cases(
+            [_FakeClip(walk, "dataset-1", "walk"), _FakeClip(still, "dataset-1", "bow")],  # type: ignore[list-item]
+            120,
+            L.FPS,
+            1,
+            80,
+        )
         if c.task == "waypoints"
     ]
     errors = [{"error_m": 0.8 if c.group[1] == "walk" else 0.2} for c in cases]
