@@ -234,11 +234,16 @@ def save_checkpoint(path: Path, state: dict[str, Any]) -> None:
 TRAINING_ONLY_KEYS = ("model", "optimizer", "scheduler", "rng")
 
 
-def slim_checkpoint(path: Path, out: Path) -> Path:
-    """Writes ``path`` without ``TRAINING_ONLY_KEYS`` to ``out`` (the EMA weights stay)."""
+def _load_denoiser_with_ema(path: Path) -> dict[str, Any]:
     ckpt = torch.load(path, map_location="cpu", weights_only=False)
     if ckpt.get("kind") != "denoiser" or ckpt.get("ema") is None:
         raise ValueError(f"{path}: not a denoiser checkpoint with EMA weights")
+    return ckpt
+
+
+def slim_checkpoint(path: Path, out: Path) -> Path:
+    """Writes ``path`` without ``TRAINING_ONLY_KEYS`` to ``out`` (the EMA weights stay)."""
+    ckpt = _load_denoiser_with_ema(path)
     save_checkpoint(out, {k: v for k, v in ckpt.items() if k not in TRAINING_ONLY_KEYS})
     return out
 
@@ -252,11 +257,7 @@ def blend_checkpoints(first: Path, second: Path, weight: float, out: Path) -> Pa
     """
     if not 0.0 <= weight <= 1.0:
         raise ValueError(f"weight {weight} is outside [0, 1]")
-    ckpts = [torch.load(path, map_location="cpu", weights_only=False) for path in (first, second)]
-    for path, ckpt in zip((first, second), ckpts, strict=True):
-        if ckpt.get("kind") != "denoiser" or ckpt.get("ema") is None:
-            raise ValueError(f"{path}: not a denoiser checkpoint with EMA weights")
-    base, other = ckpts
+    base, other = _load_denoiser_with_ema(first), _load_denoiser_with_ema(second)
     if base["denoiser_config"] != other["denoiser_config"]:
         raise ValueError(f"{second}: its denoiser config differs from {first}'s")
     if base["ema"].keys() != other["ema"].keys():
