@@ -608,10 +608,15 @@ WindowGoals finish_goals(const Raster& raster, const glm::dvec2& offset, const G
   const size_t px = layout.root_position.start, pz = px + 2;
   const std::vector<double>& goal = raster.goal();
   const std::vector<double>& mask = raster.mask();
+  const size_t window_frames = spec.window_tokens * spec.patch;
+  size_t root_path_frames = 0;  // window frames whose root x and z are given
+  bool root_entries_only = true;
   for (size_t f = 0; f < frames; ++f) {
+    if (f < window_frames && mask[f * m + px] > 0.0 && mask[f * m + pz] > 0.0) ++root_path_frames;
     for (size_t i = 0; i < m; ++i) {
       const size_t at = f * m + i;
       if (!(mask[at] > 0.0)) continue;
+      if (i >= layout.heading.stop()) root_entries_only = false;
       double value = goal[at];
       if (i == px) value -= offset.x;
       if (i == pz) value -= offset.y;
@@ -627,6 +632,7 @@ WindowGoals finish_goals(const Raster& raster, const glm::dvec2& offset, const G
   out.window_goal_mask.assign(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(window_values));
   out.any_window_constraint =
       std::any_of(out.window_goal_mask.begin(), out.window_goal_mask.end(), [](float x) { return x != 0.0f; });
+  out.root_path_only = root_entries_only && 2 * root_path_frames >= window_frames;
   size_t count = 0;
   std::vector<float> future_any(spec.future_limit_tokens, 0.0f);
   for (size_t k = 0; k < spec.future_limit_tokens; ++k) {

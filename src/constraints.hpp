@@ -193,6 +193,11 @@ struct WindowGoals {
   std::vector<float> future_goal_mask;  // [F, goal_dim]
   std::vector<float> future_mask;       // [F]: 1 where the token has a constrained entry
   bool any_window_constraint = false;
+  // A dense root path and nothing else: the root's ground position is given on
+  // at least half of the window's frames and every constrained entry, in the
+  // window and the future, is a root position or heading (the sampler's
+  // path_guidance_scale applies).
+  bool root_path_only = false;
 
   // Any constrained entry in the window or the future (guidance: w_con used).
   bool has_constraints() const;

@@ -667,6 +667,13 @@ void ModelPackage::Impl::parse(const Manifest& m) {
     defaults.output_smoothing_frames = sigma;
   }
   if (m.has("sampling.interpolate_root")) defaults.interpolate_root = m.boolean("sampling.interpolate_root");
+  if (m.has("sampling.path_guidance_scale")) {
+    const double scale = m.number("sampling.path_guidance_scale");
+    if (!(scale > 0.0 && scale <= 1.0)) {
+      m.fail("sampling.path_guidance_scale", "is " + describe_json(scale) + ", expected a number in (0, 1]");
+    }
+    defaults.path_guidance_scale = static_cast<float>(scale);
+  }
 
   // --- denoiser sizes ------------------------------------------------------------------------
   denoiser_sizes.two_stage = m.boolean("denoiser.two_stage");

@@ -86,6 +86,7 @@ struct SamplingDefaults {
   size_t decode_context_tokens = 4;
   double output_smoothing_frames = 0.0;  // motion_filter.hpp; optional in model.json (absent: off)
   bool interpolate_root = false;         // GoalSpec::interpolate_root; optional in model.json (absent: off)
+  float path_guidance_scale = 1.0f;      // WindowInput::path_guidance_scale; optional (absent: 1), (0, 1]
 };
 
 // The names and signature of one graph (graphs.<key> of model.json).

@@ -175,6 +175,7 @@ Planner::Planner(std::shared_ptr<const ModelPackage> package, PlannerConfig conf
   if (config_.decode_context_tokens > 0) s.decode_context_tokens = config_.decode_context_tokens;
   s.start_xz = config_.start_xz;
   s.interpolate_root = config_.interpolate_root;
+  s.path_guidance_scale = config_.path_guidance_scale;
   s.max_root_speed = config_.max_root_speed;
   s.seed = config_.seed;
   smoothing_frames_ = config_.output_smoothing_frames.value_or(package_->sampling_defaults().output_smoothing_frames);

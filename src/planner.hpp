@@ -115,6 +115,7 @@ struct PlannerConfig {
   // turned to its rotation target.
   bool joint_reach = true;
   std::optional<bool> interpolate_root;           // GoalSpec::interpolate_root; default: the package's
+  std::optional<float> path_guidance_scale;       // WindowInput::path_guidance_scale; default: the package's
   double max_root_speed = kDefaultMaxRootSpeed;   // GoalSpec::max_root_speed (m/s; 0: no limit)
   glm::dvec2 start_xz{0.0, 0.0};              // where the character starts (without initial_history)
   // What the character was doing before the planner starts (an animation it

@@ -57,6 +57,11 @@ RolloutConfig Rollout::resolve(const RolloutSettings& s) const {
   c.root_overwrite = s.root_overwrite;
   c.root_continuity = s.root_continuity;
   c.interpolate_root = s.interpolate_root.value_or(d.interpolate_root);
+  c.path_guidance_scale = s.path_guidance_scale.value_or(d.path_guidance_scale);
+  if (!(c.path_guidance_scale > 0.0f && c.path_guidance_scale <= 1.0f)) {
+    throw Error("rollout settings: path_guidance_scale is " + std::to_string(c.path_guidance_scale) +
+                ", expected (0, 1]");
+  }
   if (!std::isfinite(s.max_root_speed) || s.max_root_speed < 0.0) {
     throw Error("rollout settings: max_root_speed is " + std::to_string(s.max_root_speed) +
                 ", expected >= 0 m/s (0: no limit)");
@@ -230,6 +235,7 @@ WindowInput Rollout::prepare_window() const {
   in.steps = config_.steps;
   in.w_text = config_.w_text;
   in.w_con = config_.w_con;
+  in.path_guidance_scale = config_.path_guidance_scale;
   in.root_overwrite = config_.root_overwrite;
   in.root_continuity = config_.root_continuity;
   in.decode_context_tokens = config_.decode_context_tokens;

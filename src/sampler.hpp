@@ -108,6 +108,10 @@ struct WindowInput {
   size_t steps = 4;
   float w_text = 2.0f;
   float w_con = 2.0f;
+  // w_con is multiplied by this where the goals are a dense root path alone
+  // (WindowGoals::root_path_only): guidance that pushes a fully given root
+  // path harder makes the body over-commit to it, feet sliding under it.
+  float path_guidance_scale = 1.0f;
   bool root_overwrite = true;
   // With root_overwrite, after the last step: the root position entries the
   // goals leave free are moved too, by the overwrite's displacement

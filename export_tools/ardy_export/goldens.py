@@ -319,6 +319,7 @@ def _write_test_package(out: Path, seed: int, windows: int) -> dict[str, Any]:
         tiny_text_seed=seed,
         output_smoothing_frames=0.0,  # the goldens are the model's raw output
         interpolate_root=False,  # and its goals the constraints as given
+        path_guidance_scale=1.0,  # under the one w_con of the goldens' rollout
     )
     # The commit differs from run to run; the golden files must not.
     description["provenance"].pop("commit", None)

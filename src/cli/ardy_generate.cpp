@@ -6,6 +6,7 @@
 //                 [--out-json out.json] [--w-text W] [--w-con W]
 //                 [--history-seconds S] [--smoothing S]
 //                 [--interpolate-root on|off] [--max-root-speed V] [--foot-lock on|off]
+//                 [--path-guidance-scale S]
 //
 // The timeline schema is timeline.hpp's (export_tools' timeline.py). The
 // motion is made by offline_motion.hpp: the frames a game's planner shows for
@@ -48,7 +49,7 @@ constexpr const char* kUsage =
     "                     [--out-bvh out.bvh] [--out-json out.json] [--threads N]\n"
     "                     [--w-text W] [--w-con W] [--history-seconds S]\n"
     "                     [--smoothing S] [--interpolate-root on|off] [--max-root-speed V]\n"
-    "                     [--foot-lock on|off]\n"
+    "                     [--foot-lock on|off] [--path-guidance-scale S]\n"
     "\n"
     "  --model DIR            model package folder (model.json, graphs, vocab.txt)\n"
     "  --timeline FILE        JSON timeline: {\"prompts\": [{\"time\", \"text\"}], \"constraints\": [...]}\n"
@@ -59,6 +60,8 @@ constexpr const char* kUsage =
     "  --out-json FILE        write per-frame JSON (positions, local rotations as quaternions, contacts)\n"
     "  --threads N            ONNX Runtime intra-op threads (default: all cores but one)\n"
     "  --w-text W, --w-con W  guidance weights (default: the package's)\n"
+    "  --path-guidance-scale S  w_con times S where the constraints are a dense root path alone,\n"
+    "                         0 < S <= 1 (default: the package's)\n"
     "  --history-seconds S    history length (default and maximum: the model's)\n"
     "  --smoothing S          output filter sigma in frames, 0 = raw model output (default: the package's)\n"
     "  --interpolate-root on|off  turn sparse root targets (waypoints, keyframe roots) into a path from\n"
@@ -104,6 +107,7 @@ struct Arguments {
   std::optional<double> history_seconds;
   std::optional<double> smoothing;
   std::optional<bool> interpolate_root;
+  std::optional<float> path_guidance_scale;
   std::optional<double> max_root_speed;
   bool foot_lock = true;
   bool joint_reach = true;
@@ -115,7 +119,7 @@ Arguments parse_arguments(int argc, char** argv) {
                                        "--steps",  "--out-bvh",  "--out-json",      "--threads",
                                        "--w-text", "--w-con",    "--history-seconds", "--joint-reach",
                                        "--smoothing", "--interpolate-root", "--max-root-speed",
-                                       "--foot-lock"};
+                                       "--foot-lock", "--path-guidance-scale"};
   for (int i = 1; i < argc; ++i) {
     std::string arg = argv[i];
     std::string value;
@@ -182,6 +186,10 @@ Arguments parse_arguments(int argc, char** argv) {
   if (values.count("--foot-lock")) a.foot_lock = on_off("--foot-lock");
   if (values.count("--joint-reach")) a.joint_reach = on_off("--joint-reach");
   if (values.count("--max-root-speed")) a.max_root_speed = number("--max-root-speed", 0.0, 1000.0);
+  if (values.count("--path-guidance-scale")) {
+    a.path_guidance_scale = static_cast<float>(number("--path-guidance-scale", 0.0, 1.0));
+    if (*a.path_guidance_scale == 0.0f) throw UsageError{"--path-guidance-scale must be above 0, got 0"};
+  }
   return a;
 }
 
@@ -269,6 +277,7 @@ int run(const Arguments& args) {
   if (args.history_seconds) config.history_seconds = *args.history_seconds;
   config.output_smoothing_frames = args.smoothing;
   config.interpolate_root = args.interpolate_root;
+  config.path_guidance_scale = args.path_guidance_scale;
   if (args.max_root_speed) config.max_root_speed = *args.max_root_speed;
   config.foot_lock = args.foot_lock;
   config.joint_reach = args.joint_reach;

@@ -313,6 +313,12 @@ TEST_CASE("ardy-generate refuses bad arguments with exit code 2 and a message", 
   r = run_cli(base + " --seconds 1 --foot-lock maybe");
   CHECK(r.code == 2);
   CHECK_THAT(r.err, ContainsSubstring("--foot-lock must be on or off, got 'maybe'"));
+  r = run_cli(base + " --seconds 1 --path-guidance-scale 0");
+  CHECK(r.code == 2);
+  CHECK_THAT(r.err, ContainsSubstring("--path-guidance-scale must be above 0, got 0"));
+  r = run_cli(base + " --seconds 1 --path-guidance-scale 2");
+  CHECK(r.code == 2);
+  CHECK_THAT(r.err, ContainsSubstring("--path-guidance-scale is '2', expected a number in 0..1"));
   r = run_cli("--help");
   CHECK(r.code == 0);
   CHECK_THAT(r.out, ContainsSubstring("usage: ardy-generate"));

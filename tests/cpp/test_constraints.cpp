@@ -374,6 +374,40 @@ TEST_CASE("window goals: interpolate_root turns sparse root targets into a path 
   CHECK(count_mask(sparse.window_goal_mask) == 2 + 2 + 2 + 2);
 }
 
+TEST_CASE("window goals: root_path_only marks a dense root path with nothing else constrained",
+          "[constraints][goals]") {
+  const ardy::Normalization norm = unit_stats();
+  const ardy::GoalSpec s = spec(norm);  // 10 tokens of 4: 40 window frames from frame 40
+  const auto path = [](int64_t start, size_t frames) {
+    RootPath p;
+    p.start_frame = start;
+    for (size_t f = 0; f < frames; ++f) p.positions.push_back({0.01 * double(f), 0.0});
+    return p;
+  };
+  const glm::dvec2 anchor{0.0, 0.0};
+  // The whole window, and half of it (the bound), with headings into the future: a path.
+  RootPath with_headings = path(40, 50);
+  with_headings.headings.assign(50, 0.5);
+  CHECK(ardy::window_goals(std::vector<Constraint>{with_headings}, 40, anchor, s).root_path_only);
+  CHECK(ardy::window_goals(std::vector<Constraint>{path(60, 20)}, 40, anchor, s).root_path_only);
+  // Less than half of the window, or only sparse waypoints: guidance as for any goal.
+  CHECK(!ardy::window_goals(std::vector<Constraint>{path(61, 19)}, 40, anchor, s).root_path_only);
+  const std::vector<Constraint> waypoints{RootWaypoint{49, 3.0, 4.0, 0.5}, RootWaypoint{79, 5.0, 4.0, std::nullopt}};
+  CHECK(!ardy::window_goals(waypoints, 40, anchor, s).root_path_only);
+  // interpolate_root fills the waypoints into a path over the window.
+  ardy::GoalSpec interpolated = s;
+  interpolated.interpolate_root = true;
+  CHECK(ardy::window_goals(waypoints, 40, anchor, interpolated).root_path_only);
+  // Anything besides the root, in the window or the future, keeps the full guidance.
+  CHECK(!ardy::window_goals(std::vector<Constraint>{path(40, 40), FootContact{42, 44, {0}, 1.0}}, 40, anchor, s).root_path_only);
+  JointTarget hand;
+  hand.frame = 85;  // a future frame
+  hand.joint = 3;
+  hand.position = glm::dvec3{0.0, 1.0, 0.3};
+  CHECK(!ardy::window_goals(std::vector<Constraint>{path(40, 40), hand}, 40, anchor, s).root_path_only);
+  CHECK(!ardy::window_goals(std::vector<Constraint>{}, 40, anchor, s).root_path_only);
+}
+
 TEST_CASE("window goals: max_root_speed pulls root targets back so nothing asks for a teleport",
           "[constraints][goals]") {
   const ardy::Normalization norm = unit_stats();

@@ -105,6 +105,7 @@ TEST_CASE("the tiny package loads from its folder with every value from model.js
   CHECK(package.sampling_defaults().w_text == 2.0f);
   CHECK(package.sampling_defaults().w_con == 2.0f);
   CHECK(package.sampling_defaults().decode_context_tokens == 4);
+  CHECK(package.sampling_defaults().path_guidance_scale == 1.0f);
   CHECK(package.text_embedding_size() == 8);
   CHECK(package.text_encoder().embedding_size() == 8);
   CHECK(package.text_settings().tokenizer.max_tokens == 128);
@@ -266,6 +267,10 @@ TEST_CASE("model.json fields are validated with the field, the expected and the 
              ContainsSubstring("sampling.default_steps is 0, expected 1..10"));
   CHECK_THAT(load_error([](json& d) { d["sampling"]["w_text"] = "two"; }),
              ContainsSubstring("sampling.w_text must be a number"));
+  CHECK_THAT(load_error([](json& d) { d["sampling"]["path_guidance_scale"] = 0; }),
+             ContainsSubstring("sampling.path_guidance_scale is 0.0, expected a number in (0, 1]"));
+  CHECK_THAT(load_error([](json& d) { d["sampling"]["path_guidance_scale"] = 1.5; }),
+             ContainsSubstring("sampling.path_guidance_scale is 1.5, expected a number in (0, 1]"));
   CHECK_THAT(load_error([](json& d) { d["text"]["special_tokens"]["unk"]["id"] = 7; }),
              ContainsSubstring("text.special_tokens.unk.id is 7, but") && ContainsSubstring("at id 100"));
   CHECK_THAT(

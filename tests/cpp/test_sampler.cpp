@@ -353,6 +353,29 @@ TEST_CASE("several windows in one denoiser call give each window's own result", 
              ContainsSubstring("shares its steps"));
 }
 
+TEST_CASE("path_guidance_scale scales w_con in windows whose goals are a dense root path alone", "[sampler]") {
+  const auto package = tiny_package();
+  Rollout rollout = golden_rollout();
+  WindowInput path_window = rollout.prepare_window();
+  REQUIRE(path_window.goals.has_constraints());
+  path_window.goals.root_path_only = true;
+  const std::vector<float> noise = golden_noise(0);
+  const auto run = [&](const WindowInput& base, float w_con, float scale) {
+    WindowInput in = base;
+    in.w_con = w_con;
+    in.path_guidance_scale = scale;
+    return ardy::generate_window(*package, in, noise).features;
+  };
+  // On a path window, w_con 2 at half scale is w_con 1 at full scale, and differs from w_con 2.
+  CHECK(max_abs_diff(run(path_window, 2.0f, 0.5f), run(path_window, 1.0f, 1.0f)) < 1e-6);
+  CHECK(max_abs_diff(run(path_window, 2.0f, 0.5f), run(path_window, 2.0f, 1.0f)) > 1e-3);
+  // Any other window keeps w_con.
+  WindowInput other = path_window;
+  other.goals.root_path_only = false;
+  CHECK(max_abs_diff(run(other, 2.0f, 0.5f), run(other, 2.0f, 1.0f)) < 1e-6);
+  CHECK_THAT(error_message([&] { run(other, 2.0f, 1.5f); }), ContainsSubstring("path_guidance_scale is 1.500000"));
+}
+
 TEST_CASE("root_continuity moves the free root positions with the overwrite, so the root has no step",
           "[sampler]") {
   const auto package = tiny_package();
@@ -466,6 +489,10 @@ TEST_CASE("every step count from 1 to N runs; settings are validated", "[rollout
   bad = {};
   bad.w_text = std::nanf("");
   CHECK_THAT(error_message([&] { Rollout r(tiny_package(), bad); }), ContainsSubstring("w_text is not finite"));
+  bad = {};
+  bad.path_guidance_scale = 0.0f;
+  CHECK_THAT(error_message([&] { Rollout r(tiny_package(), bad); }),
+             ContainsSubstring("path_guidance_scale is 0.000000, expected (0, 1]"));
   // Limits beyond the model's are clamped.
   RolloutSettings big;
   big.history_tokens = 1000;

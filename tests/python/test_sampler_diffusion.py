@@ -9,6 +9,7 @@ import pytest
 import torch
 
 from ardy_export.diffusion import DiffusionSchedule, cosine_alphas_cumprod, ddim_timesteps
+from ardy_export.models import layout as L
 from ardy_export.models.denoiser import Denoiser
 from ardy_export.sampling.constraints import WindowGoals
 from ardy_export.sampling.guidance import combine, guidance_branches
@@ -190,3 +191,53 @@ def test_real_denoiser_batch_equals_separate_calls() -> None:
     for r, x in zip(reqs, together, strict=True):
         (alone,) = sample_windows(den, bundle.schedule, [r], 4)
         assert np.allclose(alone, x, atol=1e-4)
+
+
+def _path_goals(c: int, p: int, path_frames: int, extra_feature: int | None = None) -> WindowGoals:
+    """Root x and z given on the first ``path_frames`` of the window's ``c * p`` frames;
+    ``extra_feature`` also constrains that feature on the first frame."""
+    m = L.FEATURE_SIZE
+    goal = np.zeros((c * p, m), np.float32)
+    mask = np.zeros((c * p, m), np.float32)
+    goal[:path_frames, 0] = np.linspace(0.0, 1.0, path_frames)
+    mask[:path_frames, [0, 2]] = 1.0
+    if extra_feature is not None:
+        mask[0, extra_feature] = 1.0
+    empty = np.zeros((0, p * m), np.float32)
+    return WindowGoals(
+        goal.reshape(c, p * m), mask.reshape(c, p * m), empty, empty, np.zeros(0, np.float32)
+    )
+
+
+def test_root_path_only_marks_a_dense_root_path_alone() -> None:
+    c, p = 10, 4
+    assert _path_goals(c, p, 40).root_path_only
+    assert _path_goals(c, p, 20).root_path_only  # half the window: the bound
+    assert _path_goals(c, p, 20, extra_feature=L.HEADING_SLICE.start).root_path_only
+    assert not _path_goals(c, p, 19).root_path_only
+    assert not _path_goals(c, p, 40, extra_feature=L.HEADING_SLICE.stop).root_path_only
+    assert not _empty_goals(c, p * L.FEATURE_SIZE).root_path_only
+
+
+def test_path_guidance_scale_scales_w_con_on_dense_path_windows_only() -> None:
+    """On a dense-path window, w_con 2 at scale 0.5 samples as w_con 1; elsewhere the
+    scale changes nothing."""
+    bundle = random_bundle(seed=3)
+    cfg = bundle.config
+    c, d = cfg.window_tokens, cfg.token_dim
+    rng = np.random.default_rng(5)
+    text = rng.standard_normal(384).astype(np.float32)
+    noise = rng.standard_normal((c, d)).astype(np.float32)
+
+    def sample(goals: WindowGoals, w_con: float, scale: float) -> np.ndarray:
+        request = WindowRequest(np.zeros((0, d), np.float32), text, goals, noise)
+        (x0,) = sample_windows(
+            bundle.denoiser, bundle.schedule, [request], 4, 2.0, w_con, True, scale
+        )
+        return x0
+
+    path = _path_goals(c, cfg.patch, c * cfg.patch)
+    assert np.allclose(sample(path, 2.0, 0.5), sample(path, 1.0, 1.0), atol=1e-6)
+    assert not np.allclose(sample(path, 2.0, 0.5), sample(path, 2.0, 1.0), atol=1e-3)
+    keyframe = _path_goals(c, cfg.patch, c * cfg.patch, extra_feature=L.HEADING_SLICE.stop)
+    assert np.allclose(sample(keyframe, 2.0, 0.5), sample(keyframe, 2.0, 1.0), atol=1e-6)

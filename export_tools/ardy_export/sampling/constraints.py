@@ -197,6 +197,19 @@ class WindowGoals:
         return bool(self.window_goal_mask.any() or self.future_mask.any())
 
     @property
+    def root_path_only(self) -> bool:
+        """A dense root path and nothing else: the root's x and z are given on at least half
+        of the window's frames and every constrained entry (window and future) is a root
+        position or heading (src/constraints.hpp ``WindowGoals::root_path_only``)."""
+        window = self.window_goal_mask.reshape(-1, L.FEATURE_SIZE)
+        future = self.future_goal_mask.reshape(-1, L.FEATURE_SIZE)
+        root_end = L.HEADING_SLICE.stop
+        if window[:, root_end:].any() or future[:, root_end:].any():
+            return False
+        path_frames = int(np.count_nonzero((window[:, 0] > 0) & (window[:, 2] > 0)))
+        return 2 * path_frames >= window.shape[0]
+
+    @property
     def future_tokens(self) -> int:
         return int(self.future_mask.shape[0])
 

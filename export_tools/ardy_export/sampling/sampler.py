@@ -179,15 +179,23 @@ def sample_windows(
     w_text: float = 2.0,
     w_con: float = 2.0,
     root_overwrite: bool = True,
+    path_guidance_scale: float = 1.0,
 ) -> list[np.ndarray]:
     """DDIM for a batch of windows; returns the clean tokens [C, D] of each (normalized).
 
     ``root_overwrite=False`` skips the overwrite of the guided x0 (for tests that measure
     what the network itself learned; the runtime always overwrites).
+    ``path_guidance_scale`` multiplies ``w_con`` in windows whose goals are a dense root path
+    alone (``WindowGoals.root_path_only``).
     """
     cfg = denoiser.config
     branches = [
-        guidance_branches(w_text, w_con, r.text_embedding is not None, r.goals.has_constraints)
+        guidance_branches(
+            w_text,
+            w_con * path_guidance_scale if r.goals.root_path_only else w_con,
+            r.text_embedding is not None,
+            r.goals.has_constraints,
+        )
         for r in requests
     ]
     packed = _pack_rows(requests, branches, cfg)
@@ -289,6 +297,7 @@ class RolloutConfig:
     start_xz: tuple[float, float] = (0.0, 0.0)
     root_overwrite: bool = True
     interpolate_root: bool = False  # constraints.interpolate_root on every window's goals
+    path_guidance_scale: float = 1.0  # sample_windows: w_con times this on dense-path windows
 
 
 @dataclass
@@ -390,6 +399,7 @@ def rollout(
             cfg.w_text,
             cfg.w_con,
             cfg.root_overwrite,
+            cfg.path_guidance_scale,
         )
         k = min(h, cfg.decode_context_tokens)
         context = hist[h - k :]
