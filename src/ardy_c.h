@@ -73,7 +73,7 @@ extern "C" {
 #define ARDY_VERSION_MINOR 1
 #define ARDY_VERSION_PATCH 0
 /* Changes whenever a struct layout or a signature of this header changes. */
-#define ARDY_ABI_VERSION 2
+#define ARDY_ABI_VERSION 3
 
 typedef struct ardy_model ardy_model;     /* a loaded model package (immutable) */
 typedef struct ardy_planner ardy_planner; /* one character's streaming planner */
@@ -154,6 +154,8 @@ typedef struct ardy_planner_params {
   int32_t steps;                  /* diffusion steps per window; 0: the package default */
   float w_text;                   /* text guidance; NaN: the package default */
   float w_con;                    /* constraint guidance; NaN: the package default */
+  float path_guidance_scale;      /* w_con times this where the goals are a dense root path alone (keyboard
+                                   * steering, clicked paths), in (0, 1]; NaN: the package default */
   double history_seconds;         /* history window (default 8; clamped to the package's maximum) */
   double future_seconds;          /* out-of-window goal horizon; < 0: the package's maximum */
   double start_x, start_z;        /* where the character starts */
@@ -263,8 +265,10 @@ ARDY_API ardy_status ardy_planner_clear_constraints(ardy_planner* planner);
 /* Keyboard steering: target root velocity (m/s, world x and z). */
 ARDY_API ardy_status ardy_planner_set_target_velocity(ardy_planner* planner, double vx, double vz);
 ARDY_API ardy_status ardy_planner_clear_target_velocity(ardy_planner* planner);
-/* Sampling of the windows to come: steps 0, w NaN: unchanged. */
-ARDY_API ardy_status ardy_planner_set_sampling(ardy_planner* planner, int32_t steps, float w_text, float w_con);
+/* Sampling of the windows to come: steps 0, a NaN value: unchanged
+ * (path_guidance_scale: ardy_planner_params). */
+ARDY_API ardy_status ardy_planner_set_sampling(ardy_planner* planner, int32_t steps, float w_text, float w_con,
+                                               float path_guidance_scale);
 
 /* --- playback (never waits on inference, never allocates) ------------------ */
 

@@ -348,6 +348,7 @@ ardy_planner_params ardy_planner_default_params(void) {
   p.steps = 0;
   p.w_text = NAN;
   p.w_con = NAN;
+  p.path_guidance_scale = NAN;
   p.history_seconds = c.history_seconds;
   p.future_seconds = -1.0;
   p.start_x = c.start_xz.x;
@@ -422,6 +423,12 @@ ardy_status ardy_planner_create(ardy_model* model, const ardy_planner_params* pa
     if (p.steps > 0) c.steps = static_cast<size_t>(p.steps);
     if (!std::isnan(p.w_text)) c.w_text = p.w_text;
     if (!std::isnan(p.w_con)) c.w_con = p.w_con;
+    if (!std::isnan(p.path_guidance_scale)) {
+      require(p.path_guidance_scale > 0.0f && p.path_guidance_scale <= 1.0f,
+              "ardy_planner_params: path_guidance_scale is " + number_text(p.path_guidance_scale) +
+                  ", expected (0, 1] or NaN (the package default)");
+      c.path_guidance_scale = p.path_guidance_scale;
+    }
     c.history_seconds = p.history_seconds;
     if (!(p.future_seconds < 0.0)) c.future_seconds = p.future_seconds;
     require(std::isfinite(p.start_x) && std::isfinite(p.start_z), "ardy_planner_params: start_x/start_z are not finite");
@@ -641,12 +648,14 @@ ardy_status ardy_planner_clear_target_velocity(ardy_planner* planner) {
                       [&](ardy::Planner& p) { p.clear_target_velocity(); });
 }
 
-ardy_status ardy_planner_set_sampling(ardy_planner* planner, int32_t steps, float w_text, float w_con) {
+ardy_status ardy_planner_set_sampling(ardy_planner* planner, int32_t steps, float w_text, float w_con,
+                                      float path_guidance_scale) {
   return planner_call(planner, "ardy_planner_set_sampling", [&](ardy::Planner& p) {
     require(steps >= 0, "set_sampling: steps is " + std::to_string(steps) + ", expected 0 (unchanged) or more");
     p.set_sampling(steps > 0 ? std::optional<size_t>(static_cast<size_t>(steps)) : std::nullopt,
                    std::isnan(w_text) ? std::nullopt : std::optional<float>(w_text),
-                   std::isnan(w_con) ? std::nullopt : std::optional<float>(w_con));
+                   std::isnan(w_con) ? std::nullopt : std::optional<float>(w_con),
+                   std::isnan(path_guidance_scale) ? std::nullopt : std::optional<float>(path_guidance_scale));
   });
 }
 

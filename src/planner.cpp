@@ -591,7 +591,8 @@ void Planner::set_target_velocity(double vx, double vz) {
 
 void Planner::clear_target_velocity() { push(VelocityCommand{std::nullopt}, true); }
 
-void Planner::set_sampling(std::optional<size_t> steps, std::optional<float> w_text, std::optional<float> w_con) {
+void Planner::set_sampling(std::optional<size_t> steps, std::optional<float> w_text, std::optional<float> w_con,
+                           std::optional<float> path_guidance_scale) {
   const size_t n = package_->schedule().num_steps();
   if (steps && (*steps < 1 || *steps > n)) {
     throw Error("set_sampling: steps is " + std::to_string(*steps) + ", expected 1.." + std::to_string(n) +
@@ -599,7 +600,10 @@ void Planner::set_sampling(std::optional<size_t> steps, std::optional<float> w_t
   }
   if (w_text) check_finite("set_sampling", "w_text", *w_text);
   if (w_con) check_finite("set_sampling", "w_con", *w_con);
-  push(SamplingCommand{steps, w_text, w_con}, false);
+  if (path_guidance_scale && !(*path_guidance_scale > 0.0f && *path_guidance_scale <= 1.0f)) {
+    throw Error("set_sampling: path_guidance_scale is " + number_text(*path_guidance_scale) + ", expected (0, 1]");
+  }
+  push(SamplingCommand{steps, w_text, w_con, path_guidance_scale}, false);
 }
 
 // --- reports ---------------------------------------------------------------------------
@@ -800,6 +804,7 @@ void Planner::apply_one(Command& command) {
     if (s->steps) m.settings.steps = s->steps;
     if (s->w_text) m.settings.w_text = s->w_text;
     if (s->w_con) m.settings.w_con = s->w_con;
+    if (s->path_guidance_scale) m.settings.path_guidance_scale = s->path_guidance_scale;
   }
 }
 

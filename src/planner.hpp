@@ -294,8 +294,10 @@ class Planner {
   void set_target_velocity(double vx, double vz);
   void clear_target_velocity();
 
-  // Sampling settings of the windows to come (unset: unchanged).
-  void set_sampling(std::optional<size_t> steps, std::optional<float> w_text, std::optional<float> w_con);
+  // Sampling settings of the windows to come (unset: unchanged);
+  // path_guidance_scale in (0, 1] (WindowInput::path_guidance_scale).
+  void set_sampling(std::optional<size_t> steps, std::optional<float> w_text, std::optional<float> w_con,
+                    std::optional<float> path_guidance_scale = std::nullopt);
 
   // --- reports ---
   PlannerStats stats() const;
@@ -339,6 +341,7 @@ class Planner {
     std::optional<size_t> steps;
     std::optional<float> w_text;
     std::optional<float> w_con;
+    std::optional<float> path_guidance_scale;
   };
   using Command = std::variant<PromptCommand, AddConstraintCommand, RemoveConstraintCommand,
                                ClearConstraintsCommand, VelocityCommand, SamplingCommand>;

@@ -190,7 +190,8 @@ bool MotionGenerator::apply_sampling(const char *what) {
 	try {
 		planner_->set_sampling(steps_ > 0 ? static_cast<size_t>(steps_) : defaults.steps,
 				text_guidance_ >= 0.0 ? static_cast<float>(text_guidance_) : defaults.w_text,
-				constraint_guidance_ >= 0.0 ? static_cast<float>(constraint_guidance_) : defaults.w_con);
+				constraint_guidance_ >= 0.0 ? static_cast<float>(constraint_guidance_) : defaults.w_con,
+				path_guidance_scale_ >= 0.0 ? static_cast<float>(path_guidance_scale_) : defaults.path_guidance_scale);
 	} catch (const std::exception &failure) {
 		return fail(std::string(what) + ": " + failure.what());
 	}
@@ -231,6 +232,22 @@ void MotionGenerator::set_constraint_guidance(double weight) {
 
 double MotionGenerator::get_constraint_guidance() const {
 	return constraint_guidance_;
+}
+
+void MotionGenerator::set_path_guidance_scale(double scale) {
+	if (!(scale < 0.0 || (scale > 0.0 && scale <= 1.0))) {
+		fail("path_guidance_scale: " + std::to_string(scale) + " is out of range (negative for the model's default, or above 0 up to 1)");
+		return;
+	}
+	const double previous = path_guidance_scale_;
+	path_guidance_scale_ = scale;
+	if (!apply_sampling("path_guidance_scale")) {
+		path_guidance_scale_ = previous;
+	}
+}
+
+double MotionGenerator::get_path_guidance_scale() const {
+	return path_guidance_scale_;
 }
 
 void MotionGenerator::set_seed(int64_t seed) {
@@ -1687,6 +1704,9 @@ PlannerConfig MotionGenerator::planner_config(const std::vector<float> &initial_
 	if (constraint_guidance_ >= 0.0) {
 		config.w_con = static_cast<float>(constraint_guidance_);
 	}
+	if (path_guidance_scale_ >= 0.0) {
+		config.path_guidance_scale = static_cast<float>(path_guidance_scale_);
+	}
 	config.history_seconds = history_seconds_;
 	config.min_buffer_frames = static_cast<size_t>(replan_buffer_frames_);
 	config.foot_lock = foot_lock_;
@@ -2172,6 +2192,8 @@ void MotionGenerator::_bind_methods() {
 	ClassDB::bind_method(D_METHOD("get_text_guidance"), &MotionGenerator::get_text_guidance);
 	ClassDB::bind_method(D_METHOD("set_constraint_guidance", "weight"), &MotionGenerator::set_constraint_guidance);
 	ClassDB::bind_method(D_METHOD("get_constraint_guidance"), &MotionGenerator::get_constraint_guidance);
+	ClassDB::bind_method(D_METHOD("set_path_guidance_scale", "scale"), &MotionGenerator::set_path_guidance_scale);
+	ClassDB::bind_method(D_METHOD("get_path_guidance_scale"), &MotionGenerator::get_path_guidance_scale);
 	ClassDB::bind_method(D_METHOD("set_seed", "seed"), &MotionGenerator::set_seed);
 	ClassDB::bind_method(D_METHOD("get_seed"), &MotionGenerator::get_seed);
 	ClassDB::bind_method(D_METHOD("set_history_seconds", "seconds"), &MotionGenerator::set_history_seconds);
@@ -2249,6 +2271,8 @@ void MotionGenerator::_bind_methods() {
 	ADD_PROPERTY(PropertyInfo(Variant::FLOAT, "text_guidance", PROPERTY_HINT_RANGE, "-1,10,0.1,or_greater"), "set_text_guidance", "get_text_guidance");
 	ADD_PROPERTY(PropertyInfo(Variant::FLOAT, "constraint_guidance", PROPERTY_HINT_RANGE, "-1,10,0.1,or_greater"), "set_constraint_guidance",
 			"get_constraint_guidance");
+	ADD_PROPERTY(PropertyInfo(Variant::FLOAT, "path_guidance_scale", PROPERTY_HINT_RANGE, "-1,1,0.05"), "set_path_guidance_scale",
+			"get_path_guidance_scale");
 	ADD_PROPERTY(PropertyInfo(Variant::INT, "seed"), "set_seed", "get_seed");
 	ADD_GROUP("Streaming", "");
 	ADD_PROPERTY(PropertyInfo(Variant::FLOAT, "history_seconds", PROPERTY_HINT_RANGE, "0,8,0.2,suffix:s"), "set_history_seconds", "get_history_seconds");

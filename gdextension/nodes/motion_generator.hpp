@@ -64,6 +64,8 @@ public:
 	double get_text_guidance() const;
 	void set_constraint_guidance(double weight);
 	double get_constraint_guidance() const;
+	void set_path_guidance_scale(double scale);
+	double get_path_guidance_scale() const;
 	void set_seed(int64_t seed);
 	int64_t get_seed() const;
 	void set_history_seconds(double seconds);
@@ -242,6 +244,7 @@ private:
 	int64_t steps_ = 0;
 	double text_guidance_ = -1.0;
 	double constraint_guidance_ = -1.0;
+	double path_guidance_scale_ = -1.0;
 	int64_t seed_ = 0;
 	double history_seconds_ = 4.0;
 	int64_t replan_buffer_frames_ = 4;

@@ -46,6 +46,9 @@ namespace Ardy
         public float WText;
         /// <summary>Constraint guidance; NaN: the package default.</summary>
         public float WCon;
+        /// <summary>WCon times this where the goals are a dense root path alone (keyboard steering,
+        /// clicked paths), in (0, 1]; NaN: the package default.</summary>
+        public float PathGuidanceScale;
         /// <summary>History window (default 8; clamped to the package's maximum).</summary>
         public double HistorySeconds;
         /// <summary>Out-of-window goal horizon; &lt; 0: the package's maximum.</summary>
@@ -92,6 +95,7 @@ namespace Ardy
                 Steps = p.steps,
                 WText = p.w_text,
                 WCon = p.w_con,
+                PathGuidanceScale = p.path_guidance_scale,
                 HistorySeconds = p.history_seconds,
                 FutureSeconds = p.future_seconds,
                 StartX = p.start_x,
@@ -120,6 +124,7 @@ namespace Ardy
                 steps = Steps,
                 w_text = WText,
                 w_con = WCon,
+                path_guidance_scale = PathGuidanceScale,
                 history_seconds = HistorySeconds,
                 future_seconds = FutureSeconds,
                 start_x = StartX,

@@ -215,10 +215,12 @@ namespace Ardy
         public void SetTargetVelocity(double vx, double vz) { Check(NativeMethods.ardy_planner_set_target_velocity(_handle, vx, vz)); }
         public void ClearTargetVelocity() { Check(NativeMethods.ardy_planner_clear_target_velocity(_handle)); }
 
-        /// <summary>Sampling of the windows to come: steps 0, w NaN: unchanged.</summary>
-        public void SetSampling(int steps, float wText = float.NaN, float wCon = float.NaN)
+        /// <summary>Sampling of the windows to come: steps 0, a NaN value: unchanged
+        /// (pathGuidanceScale: PlannerParams.PathGuidanceScale).</summary>
+        public void SetSampling(int steps, float wText = float.NaN, float wCon = float.NaN,
+                                float pathGuidanceScale = float.NaN)
         {
-            Check(NativeMethods.ardy_planner_set_sampling(_handle, steps, wText, wCon));
+            Check(NativeMethods.ardy_planner_set_sampling(_handle, steps, wText, wCon, pathGuidanceScale));
         }
 
         // --- playback (never waits on inference, never allocates) ----------------------

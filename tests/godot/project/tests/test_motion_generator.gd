@@ -135,7 +135,7 @@ func test_bad_inputs_are_reported_once_and_change_nothing() -> void:
 	var generator := MotionGenerator.new()
 	var messages: Array[String] = []
 	generator.generation_failed.connect(func(message: String) -> void: messages.append(message))
-	expect_error("MotionGenerator: ", 12)
+	expect_error("MotionGenerator: ", 14)
 	generator.prompt = "walk"
 	generator.prompt = "x".repeat(5000)
 	check_eq(generator.prompt, "walk", "an over-long prompt leaves the prompt")
@@ -150,7 +150,9 @@ func test_bad_inputs_are_reported_once_and_change_nothing() -> void:
 	generator.steps = -3
 	generator.history_seconds = 100.0
 	generator.target_velocity = Vector3(NAN, 0, 0)
-	check_eq(messages.size(), 12, "one message per bad input: " + "\n".join(messages))
+	generator.path_guidance_scale = 1.5
+	generator.path_guidance_scale = 0.0
+	check_eq(messages.size(), 14, "one message per bad input: " + "\n".join(messages))
 	var expected := [
 		"prompt",
 		"position",
@@ -164,6 +166,8 @@ func test_bad_inputs_are_reported_once_and_change_nothing() -> void:
 		"steps",
 		"history_seconds",
 		"target_velocity",
+		"path_guidance_scale: 1.5",
+		"path_guidance_scale: 0.0",
 	]
 	for i in mini(messages.size(), expected.size()):
 		check(
@@ -173,6 +177,7 @@ func test_bad_inputs_are_reported_once_and_change_nothing() -> void:
 	check_eq(generator.steps, 0, "steps unchanged")
 	check_eq(generator.history_seconds, 4.0, "history_seconds unchanged")
 	check_eq(generator.target_velocity, Vector3.ZERO, "target_velocity unchanged")
+	check_eq(generator.path_guidance_scale, -1.0, "path_guidance_scale unchanged")
 	generator.free()
 
 
