@@ -424,7 +424,7 @@ ardy_status ardy_planner_create(ardy_model* model, const ardy_planner_params* pa
     if (!std::isnan(p.w_text)) c.w_text = p.w_text;
     if (!std::isnan(p.w_con)) c.w_con = p.w_con;
     if (!std::isnan(p.path_guidance_scale)) {
-      require(p.path_guidance_scale > 0.0f && p.path_guidance_scale <= 1.0f,
+      require(ardy::path_guidance_scale_in_range(p.path_guidance_scale),
               "ardy_planner_params: path_guidance_scale is " + number_text(p.path_guidance_scale) +
                   ", expected (0, 1] or NaN (the package default)");
       c.path_guidance_scale = p.path_guidance_scale;

@@ -669,7 +669,7 @@ void ModelPackage::Impl::parse(const Manifest& m) {
   if (m.has("sampling.interpolate_root")) defaults.interpolate_root = m.boolean("sampling.interpolate_root");
   if (m.has("sampling.path_guidance_scale")) {
     const double scale = m.number("sampling.path_guidance_scale");
-    if (!(scale > 0.0 && scale <= 1.0)) {
+    if (!path_guidance_scale_in_range(scale)) {
       m.fail("sampling.path_guidance_scale", "is " + describe_json(scale) + ", expected a number in (0, 1]");
     }
     defaults.path_guidance_scale = static_cast<float>(scale);

@@ -89,6 +89,10 @@ struct SamplingDefaults {
   float path_guidance_scale = 1.0f;      // WindowInput::path_guidance_scale; optional (absent: 1), (0, 1]
 };
 
+// The range every reader of path_guidance_scale accepts: 0 would switch the
+// goals' guidance off on dense paths, above 1 would push them harder than elsewhere.
+inline bool path_guidance_scale_in_range(double scale) { return scale > 0.0 && scale <= 1.0; }
+
 // The names and signature of one graph (graphs.<key> of model.json).
 struct GraphSpec {
   std::string key;   // "history", "goals", "denoiser", "decoder", "encoder", "text_encoder"

@@ -600,7 +600,7 @@ void Planner::set_sampling(std::optional<size_t> steps, std::optional<float> w_t
   }
   if (w_text) check_finite("set_sampling", "w_text", *w_text);
   if (w_con) check_finite("set_sampling", "w_con", *w_con);
-  if (path_guidance_scale && !(*path_guidance_scale > 0.0f && *path_guidance_scale <= 1.0f)) {
+  if (path_guidance_scale && !path_guidance_scale_in_range(*path_guidance_scale)) {
     throw Error("set_sampling: path_guidance_scale is " + number_text(*path_guidance_scale) + ", expected (0, 1]");
   }
   push(SamplingCommand{steps, w_text, w_con, path_guidance_scale}, false);

@@ -58,7 +58,7 @@ RolloutConfig Rollout::resolve(const RolloutSettings& s) const {
   c.root_continuity = s.root_continuity;
   c.interpolate_root = s.interpolate_root.value_or(d.interpolate_root);
   c.path_guidance_scale = s.path_guidance_scale.value_or(d.path_guidance_scale);
-  if (!(c.path_guidance_scale > 0.0f && c.path_guidance_scale <= 1.0f)) {
+  if (!path_guidance_scale_in_range(c.path_guidance_scale)) {
     throw Error("rollout settings: path_guidance_scale is " + std::to_string(c.path_guidance_scale) +
                 ", expected (0, 1]");
   }

@@ -79,7 +79,7 @@ void check_window(const ModelPackage& package, const WindowInput& w, const std::
     throw Error(where + ": guidance weights must be finite (w_text " + std::to_string(w.w_text) + ", w_con " +
                 std::to_string(w.w_con) + ")");
   }
-  if (!(w.path_guidance_scale > 0.0f && w.path_guidance_scale <= 1.0f)) {
+  if (!path_guidance_scale_in_range(w.path_guidance_scale)) {
     throw Error(where + ": path_guidance_scale is " + std::to_string(w.path_guidance_scale) + ", expected (0, 1]");
   }
 }

@@ -16,6 +16,8 @@ const MAX_GUIDANCE := 10.0
 # model's defaults, so moving it starts from a familiar value.
 const MODEL_STEPS := 4
 const MODEL_GUIDANCE := 2.0
+const MODEL_PATH_GUIDANCE := 0.5
+const MIN_PATH_GUIDANCE := 0.05
 const MAX_REPLAN_FRAMES := 40
 const MODEL_FPS := 20.0
 const MAX_SEED := 2147483647
@@ -35,6 +37,9 @@ var _text_default: CheckBox
 var _constraint_guidance: HSlider
 var _constraint_value: Label
 var _constraint_default: CheckBox
+var _path_guidance: HSlider
+var _path_value: Label
+var _path_default: CheckBox
 var _history: HSlider
 var _history_value: Label
 var _replan: SpinBox
@@ -130,6 +135,25 @@ func _add_sampling_rows() -> void:
 		_constraint_value,
 		_constraint_default,
 		"How strongly waypoints, keyframes and targets steer it (constraint_guidance)"
+	)
+	_path_guidance = _slider(MIN_PATH_GUIDANCE, 1.0, 0.05)
+	_path_value = _value_label()
+	_path_guidance.value_changed.connect(
+		func(value: float) -> void: _apply("path_guidance_scale", value)
+	)
+	_path_default = _default_box()
+	_path_default.toggled.connect(
+		func(on: bool) -> void: _apply("path_guidance_scale", -1.0 if on else _path_guidance.value)
+	)
+	_row(
+		"Path guidance",
+		_path_guidance,
+		_path_value,
+		_path_default,
+		(
+			"Goal guidance times this while the only goal is a path (keys, clicked waypoints):"
+			+ "\nlower lets the feet slide less under it (path_guidance_scale)"
+		)
 	)
 
 
@@ -231,9 +255,24 @@ func _refresh() -> void:
 	_steps.set_value_no_signal(steps if steps > 0 else MODEL_STEPS)
 	_steps_value.text = "" if steps > 0 else "auto"
 	_steps_value.add_theme_color_override("font_color", UiStyle.DIM_TEXT)
-	_show_weight(generator.text_guidance, _text_guidance, _text_value, _text_default)
 	_show_weight(
-		generator.constraint_guidance, _constraint_guidance, _constraint_value, _constraint_default
+		generator.text_guidance, _text_guidance, _text_value, _text_default, MODEL_GUIDANCE, "%.1f"
+	)
+	_show_weight(
+		generator.constraint_guidance,
+		_constraint_guidance,
+		_constraint_value,
+		_constraint_default,
+		MODEL_GUIDANCE,
+		"%.1f"
+	)
+	_show_weight(
+		generator.path_guidance_scale,
+		_path_guidance,
+		_path_value,
+		_path_default,
+		MODEL_PATH_GUIDANCE,
+		"%.2f"
 	)
 	_history.set_value_no_signal(generator.history_seconds)
 	_history_value.text = "%.1f s" % generator.history_seconds
@@ -243,10 +282,18 @@ func _refresh() -> void:
 	_foot_lock.set_pressed_no_signal(generator.foot_lock)
 
 
-func _show_weight(weight: float, slider: HSlider, value: Label, use_default: CheckBox) -> void:
+# A negative weight is the model's own value: the slider rests at `model_value`.
+func _show_weight(
+	weight: float,
+	slider: HSlider,
+	value: Label,
+	use_default: CheckBox,
+	model_value: float,
+	number_format: String
+) -> void:
 	use_default.set_pressed_no_signal(weight < 0.0)
-	slider.set_value_no_signal(weight if weight >= 0.0 else MODEL_GUIDANCE)
-	value.text = "%.1f" % weight if weight >= 0.0 else "auto"
+	slider.set_value_no_signal(weight if weight >= 0.0 else model_value)
+	value.text = number_format % weight if weight >= 0.0 else "auto"
 	value.add_theme_color_override(
 		"font_color", UiStyle.TEXT if weight >= 0.0 else UiStyle.DIM_TEXT
 	)

@@ -235,7 +235,7 @@ double MotionGenerator::get_constraint_guidance() const {
 }
 
 void MotionGenerator::set_path_guidance_scale(double scale) {
-	if (!(scale < 0.0 || (scale > 0.0 && scale <= 1.0))) {
+	if (!(scale < 0.0 || ardy::path_guidance_scale_in_range(scale))) {
 		fail("path_guidance_scale: " + std::to_string(scale) + " is out of range (negative for the model's default, or above 0 up to 1)");
 		return;
 	}

@@ -187,8 +187,9 @@ Arguments parse_arguments(int argc, char** argv) {
   if (values.count("--joint-reach")) a.joint_reach = on_off("--joint-reach");
   if (values.count("--max-root-speed")) a.max_root_speed = number("--max-root-speed", 0.0, 1000.0);
   if (values.count("--path-guidance-scale")) {
-    a.path_guidance_scale = static_cast<float>(number("--path-guidance-scale", 0.0, 1.0));
-    if (*a.path_guidance_scale == 0.0f) throw UsageError{"--path-guidance-scale must be above 0, got 0"};
+    const double scale = number("--path-guidance-scale", 0.0, 1.0);
+    if (!ardy::path_guidance_scale_in_range(scale)) throw UsageError{"--path-guidance-scale must be above 0, got 0"};
+    a.path_guidance_scale = static_cast<float>(scale);
   }
   return a;
 }

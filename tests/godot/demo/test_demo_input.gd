@@ -4,7 +4,9 @@ extends SceneTree
 ## and releasing it stops it, a click on the ground places a waypoint it
 ## reaches and a right click clears it, a prompt typed into the box changes
 ## what it does and comes back with the Up key, a preset button applies its
-## prompt, a keyframe preset shows a ghost that goes once the pose is reached.
+## prompt, a keyframe preset shows a ghost that goes once the pose is reached,
+## the settings panel's path guidance slider and default box set the node's
+## path_guidance_scale.
 ## tests/godot/run.sh runs it in a copy of the demo project; it prints
 ## "N passed, N failed".
 
@@ -67,6 +69,7 @@ func _run() -> void:
 	await _click_a_waypoint()
 	await _type_a_prompt()
 	await _add_a_keyframe_preset()
+	await _set_path_guidance()
 	_finish()
 
 
@@ -194,6 +197,60 @@ func _add_a_keyframe_preset() -> void:
 	await process_frame
 	var left := presets.find_children("Ghost*", "Skeleton3D", false, false).size()
 	_check(left == 0, "the ghost goes once its pose is reached (%d left)" % left)
+
+
+func _set_path_guidance() -> void:
+	var panel: Control = main.get_node("UI/Settings")
+	var toggle: Button = panel.get_child(0)
+	SyntheticInput.click(root, toggle.get_global_rect().get_center())
+	await process_frame
+	var row_title: Label = null
+	for label: Label in panel.find_children("*", "Label", true, false):
+		if label.text == "Path guidance":
+			row_title = label
+	if row_title == null:
+		_check(false, "the settings panel has a Path guidance row")
+		return
+	_check(row_title.is_visible_in_tree(), "the Settings button opens the panel")
+	# A row is title, slider, value, default box.
+	var grid := row_title.get_parent()
+	var slider: HSlider = grid.get_child(row_title.get_index() + 1)
+	var value: Label = grid.get_child(row_title.get_index() + 2)
+	var use_default: CheckBox = grid.get_child(row_title.get_index() + 3)
+	_check(
+		generator.path_guidance_scale < 0.0 and use_default.button_pressed and value.text == "auto",
+		"the panel shows the model's own path guidance ('%s')" % value.text
+	)
+	# A click a fifth of the way along the track moves the grabber there.
+	var track := slider.get_global_rect()
+	SyntheticInput.click(root, track.position + Vector2(track.size.x * 0.2, track.size.y * 0.5))
+	await process_frame
+	var fifth := slider.min_value + 0.2 * (slider.max_value - slider.min_value)
+	var scale := generator.path_guidance_scale
+	print(
+		(
+			"  path guidance slider: %.2f (a fifth along: %.2f), shown '%s'"
+			% [scale, fifth, value.text]
+		)
+	)
+	# The grabber's width shifts where a click lands by a step or so.
+	_check(
+		is_equal_approx(scale, slider.value) and absf(scale - fifth) <= 2.0 * slider.step,
+		"a click on the slider sets path_guidance_scale (%.2f)" % scale
+	)
+	_check(
+		not use_default.button_pressed and value.text == "%.2f" % generator.path_guidance_scale,
+		"the panel shows the value set"
+	)
+	SyntheticInput.click(root, use_default.get_global_rect().get_center())
+	await process_frame
+	_check(
+		generator.path_guidance_scale < 0.0 and value.text == "auto",
+		"the default box gives it back to the model (%.2f)" % generator.path_guidance_scale
+	)
+	SyntheticInput.click(root, toggle.get_global_rect().get_center())
+	await process_frame
+	_check(not row_title.is_visible_in_tree(), "the Settings button closes the panel")
 
 
 func _wait_motion(seconds: float) -> void:
