@@ -274,6 +274,8 @@ def test_report_lists_every_section_and_marks_missed_bars(tmp_path: Path) -> Non
     assert "| text-only foot skate / the dataset's | <= 1.6x | 2.22x | **missed** |" in text
     assert "| prompt response median, all pairs | <= 1.2 s | 1.00 s | met |" in text
     assert "| keyframe joints | <= 0.05 m | 0.050 m | met |" in text
+    # The long rollout's jerk beside the test clips' own.
+    assert "| mean jerk (m/s^3) | 55.0 (the test clips: 50.0) |" in text
     assert "paraphrases" not in text.split("## Acceptance bars")[1].split("##")[0]
     for png in ("response.png", "stability.png", "contact_sheet.png"):
         assert (tmp_path / png).stat().st_size > 5000
@@ -425,6 +427,7 @@ def test_report_gives_r_precision_by_content(tmp_path: Path) -> None:
     shipped = now["text"]["rows"]["ours, 4 steps"]
     shipped["r_precision_top3_by_label"] = {"d1/bow/happy": 0.25, "d1/bow/normal": 0.5}
     shipped["r_precision_top3_by_label"]["d2/walk/sad"] = 1.0
+    shipped.update(count=12, labels=3)
     para = now["text"]["paraphrase_rows"]["ours, 4 steps"]
     para["r_precision_top3_by_label"] = {"d1/bow/happy": 0.0, "d1/bow/normal": 0.5}
     text = report.write_report(now, tmp_path).read_text()
@@ -434,6 +437,8 @@ def test_report_gives_r_precision_by_content(tmp_path: Path) -> None:
         "By dataset, R-precision is 0.38 over the 2 d1 labels (13 training clips per content), "
         "1.00 over the 1 d2 labels (R-precision by content)" in text
     )
+    # 4 rollouts per label: (0.25 * 0.75 + 0.5 * 0.5 + 0) / 3, square root, over 3 labels.
+    assert "With 4 rollouts per label the in-bank figure has a standard error of 0.127:" in text
     # Results from before the per-label figures have no such table.
     assert (
         "R-precision by content"
@@ -474,3 +479,16 @@ def test_constraint_errors_by_label_tell_walks_from_standing() -> None:
         "(packages tried)."
     )
     assert report._travelling_share({}) == ""
+
+
+def test_r_precision_standard_error_adds_up_the_labels() -> None:
+    # Two labels of 5 rollouts: rates 0.4 and 1.0; only the uncertain one contributes.
+    row = {"count": 10, "labels": 2, "r_precision_top3_by_label": {"a": 0.4, "b": 1.0}}
+    assert report.r_precision_standard_error(row) == pytest.approx(np.sqrt(0.4 * 0.6 / 4) / 2)
+    # Every label certain: no sampling error.
+    row["r_precision_top3_by_label"] = {"a": 0.0, "b": 1.0}
+    assert report.r_precision_standard_error(row) == 0.0
+    # Without per-label rates, or with one rollout per label, there is no figure.
+    assert report.r_precision_standard_error({"count": 10, "labels": 2}) is None
+    row = {"count": 2, "labels": 2, "r_precision_top3_by_label": {"a": 0.0, "b": 1.0}}
+    assert report.r_precision_standard_error(row) is None

@@ -274,6 +274,21 @@ def _r_precision_by_dataset(text: dict[str, Any]) -> list[str]:
     return phrases
 
 
+def r_precision_standard_error(row: dict[str, Any]) -> float | None:
+    """Standard error of a row's R-precision from its rollouts: the mean over labels of
+    per-label hit rates, each a fraction of ``count / labels`` rollouts, so the error of
+    each rate (p (1 - p) / (n - 1), unbiased) adds up over the labels. None without
+    per-label figures or with one rollout per label."""
+    by_label = row.get("r_precision_top3_by_label") or {}
+    labels = row.get("labels")
+    count = row.get("count")
+    if not by_label or not labels or not count or count // labels < 2:
+        return None
+    per_label = count // labels
+    variance = sum(v * (1.0 - v) / (per_label - 1) for v in by_label.values())
+    return float(np.sqrt(variance) / len(by_label))
+
+
 def _sideways_walks(text: dict[str, Any]) -> str:
     """What the shipped row's walking-left and walking-right labels score (empty without
     them): walks with the body turned against the direction of travel."""
@@ -467,8 +482,11 @@ def _response_lines(resp: dict[str, Any], out: Path) -> list[str]:
     ]
 
 
-def _stability_lines(st: dict[str, Any], out: Path) -> list[str]:
+def _stability_lines(st: dict[str, Any], out: Path, data_jerk: float | None) -> list[str]:
     _plot_stability(st, out / "stability.png")
+    jerk = _f(st["jerk"], 1)
+    if data_jerk is not None:
+        jerk += f" (the test clips: {_f(data_jerk, 1)})"
     return [
         "## Long rollout",
         "",
@@ -501,7 +519,7 @@ def _stability_lines(st: dict[str, Any], out: Path) -> list[str]:
                     f"{_f(st['yaw_rate_deg_s']['mean'], 1)} / {_f(st['yaw_rate_deg_s']['p99'], 1)}",
                 ],
                 ["distance from the start at the end (m)", _f(st["distance_from_start_m"], 1)],
-                ["mean jerk (m/s^3)", _f(st["jerk"], 1)],
+                ["mean jerk (m/s^3)", jerk],
             ],
         ),
         "",
@@ -860,9 +878,17 @@ def _reading_lines(results: dict[str, Any]) -> list[str]:
             line += f", {_f(para['r_precision_top3'])} with held-out paraphrases of the same labels"
         line += (
             ': prompts are followed ("Prompts that must differ"), but the motion is '
-            f"less distinct than the data. FID {_f(ours['fid'])} against {_f(data['fid'])} "
-            "between halves of the test set"
+            "less distinct than the data. "
         )
+        error = r_precision_standard_error(ours)
+        if error is not None:
+            line += (
+                f"With {ours['count'] // ours['labels']} rollouts per label the in-bank figure "
+                f"has a standard error of {_f(error)}: another set of rollouts of the same "
+                "package moves it about that much, so smaller differences between packages "
+                "are noise. "
+            )
+        line += f"FID {_f(ours['fid'])} against {_f(data['fid'])} between halves of the test set"
         if ours.get("fid_balanced") is not None:
             line += (
                 f"; against a label-balanced real set {_f(ours['fid_balanced'])} (real "
@@ -1096,7 +1122,8 @@ def write_report(
     if "response" in results:
         lines += _response_lines(results["response"], out)
     if "stability" in results:
-        lines += _stability_lines(results["stability"], out)
+        data_jerk = _g(results, "text", "rows", DATASET_ROW, "jerk")
+        lines += _stability_lines(results["stability"], out, data_jerk)
     if "contrasts" in results:
         lines += _contrast_lines(results["contrasts"], out)
     lines += _reading_lines(results)
