@@ -32,7 +32,7 @@ from onnx import numpy_helper
 
 from ardy_export.models.denoiser import Denoiser, DenoiserConfig
 from ardy_export.models.graphs import DENOISER_MODULE_INPUTS, example_denoiser_inputs
-from ardy_export.models.tokenizer import TOKENIZER_PARTS
+from ardy_export.models.tokenizer import TOKENIZER_PARTS, BodyTokenizer, TokenizerConfig
 from ardy_export.package import run_denoiser_graphs
 from ardy_export.sampling.sampler import ModelBundle
 from ardy_export.training.common import save_checkpoint
@@ -138,11 +138,24 @@ def _denoiser_reference(package: Path, inputs: Sequence[torch.Tensor]) -> np.nda
     return _run(package / "denoiser.onnx", feeds)  # format version 1: one graph
 
 
+def _with_package_seam_parts(
+    tokenizer: BodyTokenizer, found: dict[str, np.ndarray]
+) -> BodyTokenizer:
+    """The tokenizer grown with the seam parts decoder.onnx holds and it lacks (a decoder
+    fine-tuned with add_seam_filter or add_seam_overlap over a base without them)."""
+    seam_filter = found.get("seam_filter.weight")
+    overlap = found.get("dec_overlap.weight")
+    return tokenizer.with_seam_parts(
+        filter_frames=0 if seam_filter is None else int(seam_filter.shape[-1]),
+        overlap_frames=0 if overlap is None else int(overlap.shape[0]) // tokenizer.config.body_dim,
+    )
+
+
 def _with_package_decoder(
-    package: Path, tokenizer_state: dict[str, torch.Tensor]
+    package: Path, tokenizer_state: dict[str, torch.Tensor], found: dict[str, np.ndarray]
 ) -> dict[str, torch.Tensor]:
-    """The tokenizer's state with every decoder parameter taken from decoder.onnx."""
-    found = graph_weights(package / "decoder.onnx", module="tokenizer")
+    """The tokenizer's state with every decoder parameter taken from decoder.onnx's weights
+    (``found``)."""
     decoder = tuple(module + "." for module in TOKENIZER_PARTS["decoder"])
     names = [name for name in tokenizer_state if name.startswith(decoder)]
     missing = [name for name in names if name not in found]
@@ -167,6 +180,11 @@ def recover_checkpoint(package: Path, base_checkpoint: Path, out: Path) -> dict[
     and sampling defaults); returns the largest difference to each of the package's graphs."""
     description = json.loads((package / "model.json").read_text(encoding="utf-8"))
     base = torch.load(base_checkpoint, map_location="cpu", weights_only=False)
+    decoder_weights = graph_weights(package / "decoder.onnx", module="tokenizer")
+    base_tokenizer = BodyTokenizer(TokenizerConfig.from_dict(base["tokenizer_config"]))
+    base_tokenizer.load_state_dict(base["tokenizer"])
+    grown = _with_package_seam_parts(base_tokenizer, decoder_weights)
+    base = {**base, "tokenizer_config": grown.config.to_dict(), "tokenizer": grown.state_dict()}
     bundle = ModelBundle.from_state(base)
     found: dict[str, np.ndarray] = {}
     for graph in ("history.onnx", "goals.onnx", "denoiser.onnx"):
@@ -207,7 +225,7 @@ def recover_checkpoint(package: Path, base_checkpoint: Path, out: Path) -> dict[
             )
     weights = {name: torch.from_numpy(np.array(found[name])) for name in state}
     bundle.denoiser.load_state_dict(weights)
-    tokenizer_state = _with_package_decoder(package, bundle.tokenizer.state_dict())
+    tokenizer_state = _with_package_decoder(package, bundle.tokenizer.state_dict(), decoder_weights)
     bundle.tokenizer.load_state_dict(tokenizer_state)
     errors = {"denoiser": 0.0, "decoder": 0.0, "encoder": 0.0}
     with torch.no_grad():
@@ -249,6 +267,7 @@ def recover_checkpoint(package: Path, base_checkpoint: Path, out: Path) -> dict[
     recovered["ema"] = weights
     recovered["denoiser_config"] = bundle.config.to_dict()
     recovered["tokenizer"] = tokenizer_state
+    recovered["tokenizer_config"] = bundle.tokenizer.config.to_dict()
     recovered["sampling_defaults"] = defaults
     recovered["recovered_from"] = {
         "package": str(package),

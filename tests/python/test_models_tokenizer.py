@@ -100,6 +100,66 @@ def test_tokenizer_is_causal(root_input: str) -> None:
         assert not torch.allclose(d1[:, k * p :], d2[:, k * p :], atol=1e-3)
 
 
+def test_seam_filter_starts_as_the_identity_and_stays_causal() -> None:
+    """A tokenizer grown with a seam filter decodes what it decoded before; once the filter
+    blends frames, a frame still depends on no later token."""
+    tok = _tokenizer()
+    grown = tok.with_seam_parts(filter_frames=4).eval()
+    assert grown.config.seam_filter_frames == 4
+    p, t, k = 4, 6, 3
+    g = torch.Generator().manual_seed(2)
+    body = torch.randn(1, t * p, L.BODY_DIM, generator=g)
+    root = torch.randn(1, t * p, 5, generator=g)
+    prev, valid = torch.randn(1, 5, generator=g), torch.tensor([1.0])
+    with torch.no_grad():
+        codes = tok.encode(body)
+        assert torch.allclose(
+            grown.decode(codes, root, prev, valid), tok.decode(codes, root, prev, valid)
+        )
+        grown.seam_filter.weight.fill_(0.25)  # a 4-frame moving average
+        later = codes.clone()
+        later[:, k:] = -later[:, k:]
+        d1 = grown.decode(codes, root, prev, valid)
+        d2 = grown.decode(later, root, prev, valid)
+        assert torch.allclose(d1[:, : k * p], d2[:, : k * p], atol=1e-5)
+        assert not torch.allclose(d1[:, k * p], d2[:, k * p], atol=1e-3)
+    with pytest.raises(ValueError, match="seam_filter_frames is -1"):
+        BodyTokenizer(TokenizerConfig(seam_filter_frames=-1))
+
+
+def test_seam_overlap_cross_fades_the_previous_tokens_frames_causally() -> None:
+    """With an overlap of 2 frames, the first 2 frames of every patch after the call's first
+    are the previous token's overlap and the patch's own frames, weighted 2/3, 1/3 and
+    1/3, 2/3; no frame depends on a later token; the grown overlap starts as the previous
+    patch's last frame."""
+    tok = _tokenizer()
+    grown = tok.with_seam_parts(overlap_frames=2).eval()
+    p, t, k, d = 4, 5, 2, L.BODY_DIM
+    g = torch.Generator().manual_seed(3)
+    body = torch.randn(1, t * p, d, generator=g)
+    root = torch.randn(1, t * p, 5, generator=g)
+    prev, valid = torch.randn(1, 5, generator=g), torch.tensor([1.0])
+    with torch.no_grad():
+        codes = tok.encode(body)
+        plain = tok.decode(codes, root, prev, valid)
+        faded = grown.decode(codes, root, prev, valid)
+        own_heads = [j for j in range(t * p) if j % p < 2 and j >= p]
+        others = [j for j in range(t * p) if j not in own_heads]
+        assert torch.allclose(faded[:, others], plain[:, others], atol=1e-5)
+        for start in range(p, t * p, p):
+            last = plain[:, start - 1]
+            assert torch.allclose(faded[:, start], (2 * last + plain[:, start]) / 3, atol=1e-5)
+            assert torch.allclose(
+                faded[:, start + 1], (last + 2 * plain[:, start + 1]) / 3, atol=1e-5
+            )
+        later = codes.clone()
+        later[:, k:] = -later[:, k:]
+        changed = grown.decode(later, root, prev, valid)
+        assert torch.allclose(changed[:, : k * p], faded[:, : k * p], atol=1e-5)
+    with pytest.raises(ValueError, match=r"seam_overlap_frames is 5, expected 0\.\.4"):
+        BodyTokenizer(TokenizerConfig(seam_overlap_frames=5))
+
+
 def test_local_root_matches_finite_differences() -> None:
     f = synthetic_clip("walk-turn-left", "normal", 3.0, np.random.default_rng(3))
     root = torch.from_numpy(f[None, :, :5])

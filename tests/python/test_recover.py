@@ -116,3 +116,29 @@ def test_a_package_trained_with_modulation_added_recovers_from_a_base_without_it
     assert recovered.config.condition_modulation
     for name, value in grown.state_dict().items():
         assert torch.allclose(recovered.denoiser.state_dict()[name], value, atol=1e-6), name
+
+
+def test_a_package_with_seam_parts_added_recovers_from_a_base_without_them(
+    tmp_path: Path,
+) -> None:
+    """add_seam_filter and add_seam_overlap grow the base's decoder; its package's
+    decoder.onnx holds their weights, and the same base recovers them (the checkpoint's
+    tokenizer config says so)."""
+    base = torch.load(BASE, map_location="cpu", weights_only=False)
+    bundle = ModelBundle.from_state(base)
+    grown = bundle.tokenizer.with_seam_parts(filter_frames=3, overlap_frames=2)
+    torch.manual_seed(4)
+    with torch.no_grad():
+        grown.seam_filter.weight.add_(torch.randn_like(grown.seam_filter.weight) * 0.1)
+        grown.dec_overlap.weight.add_(torch.randn_like(grown.dec_overlap.weight) * 0.01)
+    state = {**base, "tokenizer_config": grown.config.to_dict(), "tokenizer": grown.state_dict()}
+    package = tmp_path / "package"
+    shutil.copytree(PACKAGE, package)
+    export_graphs(ModelBundle.from_state(state), package)
+    out = tmp_path / "recovered.pt"
+    errors = recover_checkpoint(package, BASE, out)
+    assert max(errors.values()) <= 1e-4
+    recovered = ModelBundle.from_checkpoint(out).tokenizer
+    assert (recovered.config.seam_filter_frames, recovered.config.seam_overlap_frames) == (3, 2)
+    for name in ("seam_filter.weight", "dec_overlap.weight", "dec_overlap.bias"):
+        assert torch.allclose(recovered.state_dict()[name], grown.state_dict()[name], atol=1e-6)

@@ -380,6 +380,31 @@ def test_motion_difference_error_sees_a_seam_that_positions_hide() -> None:
     assert error(seam, 2) == pytest.approx(2 * 0.01 * L.FPS**2 / (frames - 2), rel=1e-3)
 
 
+def test_seam_difference_error_reads_only_the_seams_between_patches() -> None:
+    """A 1 cm jump where two 4-frame patches meet costs its acceleration over the 4
+    differences that span one of the crop's 2 seams; the same jump inside a patch costs
+    nothing, nor does a steady drift."""
+    from ardy_export.models import layout as L
+    from ardy_export.training.losses import seam_difference_error
+
+    frames, joints, patch = 12, L.NUM_JOINTS - 1, 4
+    rng = np.random.default_rng(0)
+    body = torch.from_numpy(rng.normal(size=(1, frames, L.BODY_DIM)).astype(np.float32))
+    root = torch.zeros(1, frames, 3)
+    positions = slice(L.JOINT_POS_SLICE.start - L.ROOT_DIM, L.JOINT_POS_SLICE.stop - L.ROOT_DIM)
+
+    def error(offset: torch.Tensor) -> float:
+        pred = body.clone()
+        pred[..., positions] += offset.reshape(1, frames, 1).expand(1, frames, 3 * joints)
+        return float(seam_difference_error(root, pred, body, L.FPS, 2, patch))
+
+    step = 0.01 / 3**0.5  # per axis: 1 cm per joint
+    at_seam = error((torch.arange(frames) >= 4).float() * step)
+    assert at_seam == pytest.approx(2 * 0.01 * L.FPS**2 / 4, rel=1e-3)
+    assert error((torch.arange(frames) >= 6).float() * step) < 1e-4
+    assert error(torch.arange(frames, dtype=torch.float32) * 0.01) < 1e-4
+
+
 def test_decoder_fine_tune_keeps_the_encoder_and_attaches_to_the_denoiser(
     tmp_path: Path,
 ) -> None:
@@ -479,3 +504,24 @@ def test_decoder_fine_tune_keeps_the_encoder_and_attaches_to_the_denoiser(
         == 1
     )
     assert not refused.exists()
+    # A seam filter grown onto the decoder (and the seam jerk term) attaches too: the
+    # denoiser checkpoint then carries the filter and its config.
+    seam_cfg = {
+        **tune_cfg,
+        "run_dir": str(tmp_path / "seam"),
+        "loss": {**tune_cfg["loss"], "seam_jerk": 0.001},
+        "train": {**tune_cfg["train"], "add_seam_filter": 4},
+    }
+    (tmp_path / "seam.yaml").write_text(yaml.safe_dump(seam_cfg))
+    assert cli_main(["train", "tokenizer", "--config", str(tmp_path / "seam.yaml"), "--quiet"]) == 0
+    seam_rows = (tmp_path / "seam" / "metrics.jsonl").read_text().splitlines()
+    assert all(json.loads(line)["seam_jerk"] > 0 for line in seam_rows) and seam_rows
+    with_filter = tmp_path / "with_filter.pt"
+    seam_final = str(tmp_path / "seam" / "final.pt")
+    assert cli_main([*args, "--tokenizer", seam_final, "--out", str(with_filter)]) == 0
+    from ardy_export.training.denoiser_train import tokenizer_from_checkpoint
+
+    grown, _ = tokenizer_from_checkpoint(with_filter)
+    assert grown.config.seam_filter_frames == 4
+    trained_filter = torch.load(seam_final, weights_only=False)["ema"]["seam_filter.weight"]
+    assert torch.equal(grown.seam_filter.weight, trained_filter)

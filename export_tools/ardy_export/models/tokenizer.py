@@ -15,15 +15,19 @@ difference, like the features' first-frame velocities). ``root_input = "global"`
 normalized global root instead (the ablation of issue 5).
 
 Attention is causal at token level: token t sees tokens 0..t of the same call, so changing a
-later frame never changes an earlier token's code or decoded frames.
+later frame never changes an earlier token's code or decoded frames. The optional seam parts
+are causal too: the seam filter (``seam_filter_frames``) blends a frame with the frames before
+it only, the overlap (``seam_overlap_frames``) has token t also decode the first frames of
+token t + 1's patch, cross-faded into that patch's own.
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import torch
+import torch.nn.functional as F
 from torch import Tensor, nn
 
 from ardy_export.models.fsq import FSQ
@@ -46,6 +50,13 @@ class TokenizerConfig:
     heads: int = 4
     ff_mult: int = 4
     root_input: str = "local"  # "local" (paper) or "global" (ablation)
+    # Frames of a causal per-feature filter over the decoded frames (0: none): each frame
+    # may blend with the frames before it, across the seam to the previous patch, which a
+    # patch decoded from its own token alone leaves as a step.
+    seam_filter_frames: int = 0
+    # Frames of the next patch every token also decodes (0: none), cross-faded into that
+    # patch's own first frames: the motion crosses the seam on one token's prediction.
+    seam_overlap_frames: int = 0
     extra: dict[str, Any] = field(default_factory=dict)
 
     def levels(self) -> list[int]:
@@ -106,6 +117,16 @@ def local_root(root: Tensor, prev_root: Tensor, prev_valid: Tensor, fps: float) 
     return torch.cat((rates, root[..., 1:2]), dim=-1)
 
 
+def seam_filter(features: int, frames: int) -> nn.Conv1d:
+    """A causal filter of ``frames`` taps per feature that starts as the identity (the last
+    tap, the frame itself, 1; the earlier ones 0)."""
+    conv = nn.Conv1d(features, features, frames, groups=features, bias=False)
+    with torch.no_grad():
+        conv.weight.zero_()
+        conv.weight[:, 0, -1] = 1.0
+    return conv
+
+
 def causal_bias(tokens: int, batch: int, device: torch.device) -> Tensor:
     idx = torch.arange(tokens, device=device)
     allowed = (idx[None, :] <= idx[:, None]).unsqueeze(0).expand(batch, tokens, tokens)
@@ -116,7 +137,7 @@ def causal_bias(tokens: int, batch: int, device: torch.device) -> Tensor:
 # denoiser learns) and the decoder (decoder.onnx).
 TOKENIZER_PARTS = {
     "encoder": ("enc_in", "encoder", "enc_out"),
-    "decoder": ("dec_in", "decoder", "dec_out"),
+    "decoder": ("dec_in", "decoder", "dec_out", "dec_overlap", "seam_filter"),
 }
 
 
@@ -138,6 +159,23 @@ class BodyTokenizer(nn.Module):
         self.dec_in = nn.Linear(c.latent_dim + c.patch * root_features, c.width)
         self.decoder = TransformerStack(c.width, c.layers, c.heads, ff)
         self.dec_out = nn.Linear(c.width, c.patch * c.body_dim)
+        if c.seam_filter_frames < 0:
+            raise ValueError(
+                f"tokenizer: seam_filter_frames is {c.seam_filter_frames}, expected >= 0"
+            )
+        if not 0 <= c.seam_overlap_frames <= c.patch:
+            raise ValueError(
+                f"tokenizer: seam_overlap_frames is {c.seam_overlap_frames}, expected 0.."
+                f"{c.patch} (the patch)"
+            )
+        self.dec_overlap = (
+            nn.Linear(c.width, c.seam_overlap_frames * c.body_dim)
+            if c.seam_overlap_frames > 0
+            else None
+        )
+        self.seam_filter = (
+            seam_filter(c.body_dim, c.seam_filter_frames) if c.seam_filter_frames > 0 else None
+        )
         # Statistics (set from the data before training, saved in the state dict): the
         # feature normalization of the root, and of the local root fed to the decoder.
         self.register_buffer("root_mean", torch.zeros(c.root_dim))
@@ -192,7 +230,54 @@ class BodyTokenizer(nn.Module):
         x = self.dec_in(torch.cat((codes, cond), dim=-1))
         x = x + self._positions(tokens, codes.device)
         x = self.decoder(x, causal_bias(tokens, batch, codes.device))
-        return self.dec_out(x).reshape(batch, tokens * p, self.config.body_dim)
+        body = self.dec_out(x).reshape(batch, tokens * p, self.config.body_dim)
+        if self.dec_overlap is not None:
+            body = self._cross_fade(body, self.dec_overlap(x))
+        if self.seam_filter is None:
+            return body
+        # The first frames repeat frame 0 (the runtime decodes after context tokens, so
+        # the frames it keeps always have real frames before them).
+        padded = F.pad(body.transpose(1, 2), (self.config.seam_filter_frames - 1, 0), "replicate")
+        return self.seam_filter(padded).transpose(1, 2)
+
+    def _cross_fade(self, body: Tensor, overlap: Tensor) -> Tensor:
+        """body [B, T * P, D] with the first O frames of every patch but the call's first
+        cross-faded from the previous token's overlap [B, T, O * D] (its weight falling
+        linearly from O / (O + 1) at the seam) into the patch's own frames."""
+        c = self.config
+        batch, frames, dim = body.shape
+        tokens, o = frames // c.patch, c.seam_overlap_frames
+        patches = body.reshape(batch, tokens, c.patch, dim)
+        carried = overlap.reshape(batch, tokens, o, dim)[:, :-1]
+        own = torch.arange(1, o + 1, dtype=body.dtype, device=body.device) / (o + 1)
+        own = own.reshape(1, 1, o, 1)
+        heads = own * patches[:, 1:, :o] + (1.0 - own) * carried
+        later = torch.cat((heads, patches[:, 1:, o:]), dim=2)
+        return torch.cat((patches[:, :1], later), dim=1).reshape(batch, frames, dim)
+
+    def with_seam_parts(self, filter_frames: int = 0, overlap_frames: int = 0) -> BodyTokenizer:
+        """A copy with the seam parts it lacks added: a seam filter of ``filter_frames``
+        frames that starts as the identity, an overlap of ``overlap_frames`` frames that
+        starts by holding the previous patch's last frame (so until trained the seams are
+        blended toward it). Everything else is this tokenizer's."""
+        c = self.config
+        changes = {}
+        if filter_frames and not c.seam_filter_frames:
+            changes["seam_filter_frames"] = filter_frames
+        if overlap_frames and not c.seam_overlap_frames:
+            changes["seam_overlap_frames"] = overlap_frames
+        grown = BodyTokenizer(replace(c, **changes))
+        missing, unexpected = grown.load_state_dict(self.state_dict(), strict=False)
+        if unexpected or any(
+            not key.startswith(("seam_filter.", "dec_overlap.")) for key in missing
+        ):
+            raise ValueError(f"tokenizer: cannot add seam parts ({missing}, {unexpected})")
+        if "seam_overlap_frames" in changes:
+            last = slice((c.patch - 1) * c.body_dim, c.patch * c.body_dim)
+            with torch.no_grad():
+                grown.dec_overlap.weight.copy_(self.dec_out.weight[last].repeat(overlap_frames, 1))
+                grown.dec_overlap.bias.copy_(self.dec_out.bias[last].repeat(overlap_frames))
+        return grown
 
     def forward(
         self, body: Tensor, root: Tensor, prev_root: Tensor, prev_valid: Tensor

@@ -72,6 +72,25 @@ def motion_difference_error(
     return torch.linalg.vector_norm(diff, dim=-1).mean() * fps**order
 
 
+def seam_difference_error(
+    root_pos: Tensor, body_raw: Tensor, real_body_raw: Tensor, fps: float, order: int, patch: int
+) -> Tensor:
+    """``motion_difference_error`` over the differences whose frames span a seam between two
+    tokens' patches only (the crop starts on a patch): where the decoder's patches meet, a
+    step that the whole-crop mean dilutes ``patch`` times over."""
+    diff = joint_world_from_features(root_pos, body_raw) - joint_world_from_features(
+        root_pos, real_body_raw
+    )
+    for _ in range(order):
+        diff = diff[:, 1:] - diff[:, :-1]
+    # Difference i reads frames i..i+order: it spans the seam before frame k * patch when
+    # k * patch - order <= i <= k * patch - 1.
+    index = torch.arange(diff.shape[1], device=diff.device)
+    offset = (index + order) % patch
+    spans = (offset < order) & (index + order >= patch)
+    return torch.linalg.vector_norm(diff[:, spans], dim=-1).mean() * fps**order
+
+
 def fk_consistency(
     root_pos: Tensor, body_raw: Tensor, offsets: Tensor, parents: Sequence[int]
 ) -> Tensor:
@@ -110,6 +129,18 @@ def tokenizer_loss(
         if weights.get(name, 0.0) > 0.0:
             error = motion_difference_error(
                 root_pos, body_raw, batch["raw"][..., L.BODY_SLICE], ctx.fps, order
+            )
+            total = total + weights[name] * error
+            parts[name] = float(error.detach())
+    for name, order in (("seam_acceleration", 2), ("seam_jerk", 3)):
+        if weights.get(name, 0.0) > 0.0:
+            error = seam_difference_error(
+                root_pos,
+                body_raw,
+                batch["raw"][..., L.BODY_SLICE],
+                ctx.fps,
+                order,
+                tokenizer.config.patch,
             )
             total = total + weights[name] * error
             parts[name] = float(error.detach())

@@ -114,6 +114,10 @@ def _train(
         from ardy_export.training.denoiser_train import tokenizer_from_checkpoint
 
         model, init = tokenizer_from_checkpoint(Path(init_from))
+        model = model.with_seam_parts(
+            int(settings.extra.get("add_seam_filter", 0)),
+            int(settings.extra.get("add_seam_overlap", 0)),
+        )
         model.requires_grad_(True)
         tcfg = model.config
         mean = np.asarray(init["stats"]["mean"], np.float32)
@@ -236,7 +240,12 @@ def freeze_parts(model: BodyTokenizer, parts: list[str]) -> list[str]:
         raise ValueError(
             f"train.freeze: unknown part {unknown[0]!r}; known: {', '.join(TOKENIZER_PARTS)}"
         )
-    modules = [name for part in parts for name in TOKENIZER_PARTS[part]]
+    modules = [
+        name
+        for part in parts
+        for name in TOKENIZER_PARTS[part]
+        if getattr(model, name) is not None  # the seam filter is optional
+    ]
     for name in modules:
         getattr(model, name).requires_grad_(False)
     return modules
@@ -264,7 +273,12 @@ def attach_tokenizer(denoiser: Path, tokenizer: Path, out: Path) -> Path:
     if ckpt.get("kind") != "denoiser":
         raise ValueError(f"{denoiser}: not a denoiser checkpoint (kind {ckpt.get('kind')!r})")
     tok, tok_ckpt = load_tokenizer(tokenizer)
-    if tok.config.to_dict() != TokenizerConfig.from_dict(ckpt["tokenizer_config"]).to_dict():
+    # The seam parts are the decoder's own: the codes the denoiser learned stay as they were.
+    decoder_only = {"seam_filter_frames": 0, "seam_overlap_frames": 0}
+    if {**tok.config.to_dict(), **decoder_only} != {
+        **TokenizerConfig.from_dict(ckpt["tokenizer_config"]).to_dict(),
+        **decoder_only,
+    }:
         raise ValueError(f"{tokenizer}: its tokenizer config differs from {denoiser}'s")
     if tok_ckpt["stats"] != ckpt["stats"]:
         raise ValueError(f"{tokenizer}: its feature statistics differ from {denoiser}'s")
@@ -278,6 +292,7 @@ def attach_tokenizer(denoiser: Path, tokenizer: Path, out: Path) -> Path:
                     "with train.freeze: [encoder])"
                 )
     ckpt["tokenizer"] = state
+    ckpt["tokenizer_config"] = tok.config.to_dict()
     ckpt.setdefault("provenance_steps", []).append(
         {"tokenizer": str(tokenizer), "tokenizer_steps": int(tok_ckpt.get("step", 0))}
     )
