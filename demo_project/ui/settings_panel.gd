@@ -31,15 +31,8 @@ var _grid: GridContainer
 var _steps: SpinBox
 var _steps_value: Label
 var _steps_default: CheckBox
-var _text_guidance: HSlider
-var _text_value: Label
-var _text_default: CheckBox
-var _constraint_guidance: HSlider
-var _constraint_value: Label
-var _constraint_default: CheckBox
-var _path_guidance: HSlider
-var _path_value: Label
-var _path_default: CheckBox
+# The guidance weights' rows: property -> {slider, value, use_default, model_value, format}.
+var _weights := {}
 var _history: HSlider
 var _history_value: Label
 var _replan: SpinBox
@@ -105,56 +98,66 @@ func _add_sampling_rows() -> void:
 		_steps_default,
 		"Denoising steps per window (steps); more cost proportionally more time"
 	)
-	_text_guidance = _slider(0.0, MAX_GUIDANCE, 0.1)
-	_text_value = _value_label()
-	_text_guidance.value_changed.connect(func(value: float) -> void: _apply("text_guidance", value))
-	_text_default = _default_box()
-	_text_default.toggled.connect(
-		func(on: bool) -> void: _apply("text_guidance", -1.0 if on else _text_guidance.value)
-	)
-	_row(
+	_add_weight_row(
 		"Text guidance",
-		_text_guidance,
-		_text_value,
-		_text_default,
+		"text_guidance",
+		0.0,
+		MAX_GUIDANCE,
+		0.1,
+		MODEL_GUIDANCE,
 		"How strongly the prompt steers the motion (text_guidance)"
 	)
-	_constraint_guidance = _slider(0.0, MAX_GUIDANCE, 0.1)
-	_constraint_value = _value_label()
-	_constraint_guidance.value_changed.connect(
-		func(value: float) -> void: _apply("constraint_guidance", value)
-	)
-	_constraint_default = _default_box()
-	_constraint_default.toggled.connect(
-		func(on: bool) -> void:
-			_apply("constraint_guidance", -1.0 if on else _constraint_guidance.value)
-	)
-	_row(
+	_add_weight_row(
 		"Goal guidance",
-		_constraint_guidance,
-		_constraint_value,
-		_constraint_default,
+		"constraint_guidance",
+		0.0,
+		MAX_GUIDANCE,
+		0.1,
+		MODEL_GUIDANCE,
 		"How strongly waypoints, keyframes and targets steer it (constraint_guidance)"
 	)
-	_path_guidance = _slider(MIN_PATH_GUIDANCE, 1.0, 0.05)
-	_path_value = _value_label()
-	_path_guidance.value_changed.connect(
-		func(value: float) -> void: _apply("path_guidance_scale", value)
-	)
-	_path_default = _default_box()
-	_path_default.toggled.connect(
-		func(on: bool) -> void: _apply("path_guidance_scale", -1.0 if on else _path_guidance.value)
-	)
-	_row(
+	_add_weight_row(
 		"Path guidance",
-		_path_guidance,
-		_path_value,
-		_path_default,
+		"path_guidance_scale",
+		MIN_PATH_GUIDANCE,
+		1.0,
+		0.05,
+		MODEL_PATH_GUIDANCE,
 		(
 			"Goal guidance times this while the only goal is a path (keys, clicked waypoints):"
 			+ "\nlower lets the feet slide less under it (path_guidance_scale)"
 		)
 	)
+
+
+# A slider, its value and a "default" box for a weight the node reads as the model's own
+# when negative; the slider rests at `model_value` meanwhile.
+func _add_weight_row(
+	title: String,
+	property: StringName,
+	low: float,
+	high: float,
+	step: float,
+	model_value: float,
+	tip: String
+) -> void:
+	var slider := _slider(low, high, step)
+	slider.value_changed.connect(func(weight: float) -> void: _apply(property, weight))
+	var use_default := _default_box()
+	use_default.toggled.connect(
+		func(on: bool) -> void: _apply(property, -1.0 if on else slider.value)
+	)
+	var value := _value_label()
+	_row(title, slider, value, use_default, tip)
+	# As many decimals as the slider's step shows.
+	var decimals := 1 if step >= 0.1 else 2
+	_weights[property] = {
+		"slider": slider,
+		"value": value,
+		"use_default": use_default,
+		"model_value": model_value,
+		"format": "%%.%df" % decimals,
+	}
 
 
 # Read by the node when generation (re)starts.
@@ -255,25 +258,8 @@ func _refresh() -> void:
 	_steps.set_value_no_signal(steps if steps > 0 else MODEL_STEPS)
 	_steps_value.text = "" if steps > 0 else "auto"
 	_steps_value.add_theme_color_override("font_color", UiStyle.DIM_TEXT)
-	_show_weight(
-		generator.text_guidance, _text_guidance, _text_value, _text_default, MODEL_GUIDANCE, "%.1f"
-	)
-	_show_weight(
-		generator.constraint_guidance,
-		_constraint_guidance,
-		_constraint_value,
-		_constraint_default,
-		MODEL_GUIDANCE,
-		"%.1f"
-	)
-	_show_weight(
-		generator.path_guidance_scale,
-		_path_guidance,
-		_path_value,
-		_path_default,
-		MODEL_PATH_GUIDANCE,
-		"%.2f"
-	)
+	for property: StringName in _weights:
+		_show_weight(generator.get(property), _weights[property])
 	_history.set_value_no_signal(generator.history_seconds)
 	_history_value.text = "%.1f s" % generator.history_seconds
 	_replan.set_value_no_signal(generator.replan_buffer_frames)
@@ -282,18 +268,13 @@ func _refresh() -> void:
 	_foot_lock.set_pressed_no_signal(generator.foot_lock)
 
 
-# A negative weight is the model's own value: the slider rests at `model_value`.
-func _show_weight(
-	weight: float,
-	slider: HSlider,
-	value: Label,
-	use_default: CheckBox,
-	model_value: float,
-	number_format: String
-) -> void:
+func _show_weight(weight: float, row: Dictionary) -> void:
+	var use_default: CheckBox = row["use_default"]
+	var slider: HSlider = row["slider"]
+	var value: Label = row["value"]
 	use_default.set_pressed_no_signal(weight < 0.0)
-	slider.set_value_no_signal(weight if weight >= 0.0 else model_value)
-	value.text = number_format % weight if weight >= 0.0 else "auto"
+	slider.set_value_no_signal(weight if weight >= 0.0 else row["model_value"])
+	value.text = row["format"] % weight if weight >= 0.0 else "auto"
 	value.add_theme_color_override(
 		"font_color", UiStyle.TEXT if weight >= 0.0 else UiStyle.DIM_TEXT
 	)
