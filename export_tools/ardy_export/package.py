@@ -436,7 +436,19 @@ def model_json(
             # Written only when set, so packages without it keep their bytes.
             **({"condition_modulation": True} if dc.condition_modulation else {}),
         },
-        "tokenizer": {"root_input": tc.root_input},
+        "tokenizer": {
+            "root_input": tc.root_input,
+            # The decoder's seam parts, written only when set (recover-checkpoint reads them).
+            **({"seam_filter_frames": tc.seam_filter_frames} if tc.seam_filter_frames else {}),
+            **(
+                {
+                    "seam_overlap_frames": tc.seam_overlap_frames,
+                    "seam_overlap_contacts": tc.seam_overlap_contacts,
+                }
+                if tc.seam_overlap_frames
+                else {}
+            ),
+        },
         "text": text,
         "graphs": graphs,
         "provenance": provenance,

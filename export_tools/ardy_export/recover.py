@@ -139,15 +139,17 @@ def _denoiser_reference(package: Path, inputs: Sequence[torch.Tensor]) -> np.nda
 
 
 def _with_package_seam_parts(
-    tokenizer: BodyTokenizer, found: dict[str, np.ndarray]
+    tokenizer: BodyTokenizer, found: dict[str, np.ndarray], description: dict[str, Any]
 ) -> BodyTokenizer:
     """The tokenizer grown with the seam parts decoder.onnx holds and it lacks (a decoder
-    fine-tuned with add_seam_filter or add_seam_overlap over a base without them)."""
+    fine-tuned with add_seam_filter or add_seam_overlap over a base without them); whether
+    the overlap cross-fades the contact channels is in model.json (absent: it does)."""
     seam_filter = found.get("seam_filter.weight")
     overlap = found.get("dec_overlap.weight")
     return tokenizer.with_seam_parts(
         filter_frames=0 if seam_filter is None else int(seam_filter.shape[-1]),
         overlap_frames=0 if overlap is None else int(overlap.shape[0]) // tokenizer.config.body_dim,
+        overlap_contacts=bool(description.get("tokenizer", {}).get("seam_overlap_contacts", True)),
     )
 
 
@@ -183,7 +185,7 @@ def recover_checkpoint(package: Path, base_checkpoint: Path, out: Path) -> dict[
     decoder_weights = graph_weights(package / "decoder.onnx", module="tokenizer")
     base_tokenizer = BodyTokenizer(TokenizerConfig.from_dict(base["tokenizer_config"]))
     base_tokenizer.load_state_dict(base["tokenizer"])
-    grown = _with_package_seam_parts(base_tokenizer, decoder_weights)
+    grown = _with_package_seam_parts(base_tokenizer, decoder_weights, description)
     base = {**base, "tokenizer_config": grown.config.to_dict(), "tokenizer": grown.state_dict()}
     bundle = ModelBundle.from_state(base)
     found: dict[str, np.ndarray] = {}

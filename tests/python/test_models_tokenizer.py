@@ -156,6 +156,14 @@ def test_seam_overlap_cross_fades_the_previous_tokens_frames_causally() -> None:
         later[:, k:] = -later[:, k:]
         changed = grown.decode(later, root, prev, valid)
         assert torch.allclose(changed[:, : k * p], faded[:, : k * p], atol=1e-5)
+    # With the contact channels left out, a patch's contacts are its own.
+    own_contacts = tok.with_seam_parts(overlap_frames=2, overlap_contacts=False).eval()
+    contacts = slice(L.CONTACT_SLICE.start - L.ROOT_DIM, L.CONTACT_SLICE.stop - L.ROOT_DIM)
+    with torch.no_grad():
+        kept = own_contacts.decode(codes, root, prev, valid)
+    assert torch.allclose(kept[..., contacts], plain[..., contacts], atol=1e-5)
+    assert not torch.allclose(kept[:, p], faded[:, p])
+    assert torch.allclose(kept[:, p, : contacts.start], faded[:, p, : contacts.start], atol=1e-5)
     with pytest.raises(ValueError, match=r"seam_overlap_frames is 5, expected 0\.\.4"):
         BodyTokenizer(TokenizerConfig(seam_overlap_frames=5))
 

@@ -3,6 +3,7 @@ graphs, checked against the graphs; a base of another architecture is refused.""
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -126,7 +127,9 @@ def test_a_package_with_seam_parts_added_recovers_from_a_base_without_them(
     tokenizer config says so)."""
     base = torch.load(BASE, map_location="cpu", weights_only=False)
     bundle = ModelBundle.from_state(base)
-    grown = bundle.tokenizer.with_seam_parts(filter_frames=3, overlap_frames=2)
+    grown = bundle.tokenizer.with_seam_parts(
+        filter_frames=3, overlap_frames=2, overlap_contacts=False
+    )
     torch.manual_seed(4)
     with torch.no_grad():
         grown.seam_filter.weight.add_(torch.randn_like(grown.seam_filter.weight) * 0.1)
@@ -135,10 +138,19 @@ def test_a_package_with_seam_parts_added_recovers_from_a_base_without_them(
     package = tmp_path / "package"
     shutil.copytree(PACKAGE, package)
     export_graphs(ModelBundle.from_state(state), package)
+    # What the export writes into model.json for such a tokenizer (the graphs cannot say
+    # whether the overlap cross-fades the contact channels).
+    description = json.loads((package / "model.json").read_text())
+    description["tokenizer"].update(
+        seam_filter_frames=3, seam_overlap_frames=2, seam_overlap_contacts=False
+    )
+    (package / "model.json").write_text(json.dumps(description))
     out = tmp_path / "recovered.pt"
     errors = recover_checkpoint(package, BASE, out)
     assert max(errors.values()) <= 1e-4
     recovered = ModelBundle.from_checkpoint(out).tokenizer
-    assert (recovered.config.seam_filter_frames, recovered.config.seam_overlap_frames) == (3, 2)
+    config = recovered.config
+    assert (config.seam_filter_frames, config.seam_overlap_frames) == (3, 2)
+    assert not config.seam_overlap_contacts
     for name in ("seam_filter.weight", "dec_overlap.weight", "dec_overlap.bias"):
         assert torch.allclose(recovered.state_dict()[name], grown.state_dict()[name], atol=1e-6)

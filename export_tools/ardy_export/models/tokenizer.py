@@ -30,6 +30,7 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
+from ardy_export.models import layout as L
 from ardy_export.models.fsq import FSQ
 from ardy_export.models.layers import TransformerStack, attention_bias, sinusoidal_encoding
 
@@ -57,6 +58,9 @@ class TokenizerConfig:
     # Frames of the next patch every token also decodes (0: none), cross-faded into that
     # patch's own first frames: the motion crosses the seam on one token's prediction.
     seam_overlap_frames: int = 0
+    # Whether the foot contact channels are cross-faded too (False: a patch's contacts are
+    # its own; blended flags mislead the runtime's foot lock where a foot plants or lifts).
+    seam_overlap_contacts: bool = True
     extra: dict[str, Any] = field(default_factory=dict)
 
     def levels(self) -> list[int]:
@@ -249,23 +253,31 @@ class BodyTokenizer(nn.Module):
         tokens, o = frames // c.patch, c.seam_overlap_frames
         patches = body.reshape(batch, tokens, c.patch, dim)
         carried = overlap.reshape(batch, tokens, o, dim)[:, :-1]
+        if not c.seam_overlap_contacts:
+            carried_part = torch.ones(dim, dtype=body.dtype, device=body.device)
+            carried_part[L.CONTACT_SLICE.start - c.root_dim : L.CONTACT_SLICE.stop - c.root_dim] = 0
+            carried = carried * carried_part + patches[:, 1:, :o] * (1.0 - carried_part)
         own = torch.arange(1, o + 1, dtype=body.dtype, device=body.device) / (o + 1)
         own = own.reshape(1, 1, o, 1)
         heads = own * patches[:, 1:, :o] + (1.0 - own) * carried
         later = torch.cat((heads, patches[:, 1:, o:]), dim=2)
         return torch.cat((patches[:, :1], later), dim=1).reshape(batch, frames, dim)
 
-    def with_seam_parts(self, filter_frames: int = 0, overlap_frames: int = 0) -> BodyTokenizer:
+    def with_seam_parts(
+        self, filter_frames: int = 0, overlap_frames: int = 0, overlap_contacts: bool = True
+    ) -> BodyTokenizer:
         """A copy with the seam parts it lacks added: a seam filter of ``filter_frames``
         frames that starts as the identity, an overlap of ``overlap_frames`` frames that
         starts by holding the previous patch's last frame (so until trained the seams are
-        blended toward it). Everything else is this tokenizer's."""
+        blended toward it; ``overlap_contacts``: its contact channels too). Everything else
+        is this tokenizer's."""
         c = self.config
-        changes = {}
+        changes: dict[str, Any] = {}
         if filter_frames and not c.seam_filter_frames:
             changes["seam_filter_frames"] = filter_frames
         if overlap_frames and not c.seam_overlap_frames:
             changes["seam_overlap_frames"] = overlap_frames
+            changes["seam_overlap_contacts"] = overlap_contacts
         grown = BodyTokenizer(replace(c, **changes))
         missing, unexpected = grown.load_state_dict(self.state_dict(), strict=False)
         if unexpected or any(

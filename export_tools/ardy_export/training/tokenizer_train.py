@@ -117,6 +117,7 @@ def _train(
         model = model.with_seam_parts(
             int(settings.extra.get("add_seam_filter", 0)),
             int(settings.extra.get("add_seam_overlap", 0)),
+            bool(settings.extra.get("seam_overlap_contacts", True)),
         )
         model.requires_grad_(True)
         tcfg = model.config
@@ -274,7 +275,11 @@ def attach_tokenizer(denoiser: Path, tokenizer: Path, out: Path) -> Path:
         raise ValueError(f"{denoiser}: not a denoiser checkpoint (kind {ckpt.get('kind')!r})")
     tok, tok_ckpt = load_tokenizer(tokenizer)
     # The seam parts are the decoder's own: the codes the denoiser learned stay as they were.
-    decoder_only = {"seam_filter_frames": 0, "seam_overlap_frames": 0}
+    decoder_only = {
+        "seam_filter_frames": 0,
+        "seam_overlap_frames": 0,
+        "seam_overlap_contacts": True,
+    }
     if {**tok.config.to_dict(), **decoder_only} != {
         **TokenizerConfig.from_dict(ckpt["tokenizer_config"]).to_dict(),
         **decoder_only,
