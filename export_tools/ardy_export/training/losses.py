@@ -57,6 +57,19 @@ def foot_skate(root_pos: Tensor, body_raw: Tensor, contacts: Tensor, fps: float)
     return (c * speed).sum() / (c.sum() + 1e-6)
 
 
+def _difference_error(
+    root_pos: Tensor, body_raw: Tensor, real_body_raw: Tensor, fps: float, order: int
+) -> Tensor:
+    """Distance between the predicted and the real joints' ``order``-th time difference at
+    every difference of the crop [B, N - order, J - 1], in m/s^order."""
+    diff = joint_world_from_features(root_pos, body_raw) - joint_world_from_features(
+        root_pos, real_body_raw
+    )
+    for _ in range(order):
+        diff = diff[:, 1:] - diff[:, :-1]
+    return torch.linalg.vector_norm(diff, dim=-1) * fps**order
+
+
 def motion_difference_error(
     root_pos: Tensor, body_raw: Tensor, real_body_raw: Tensor, fps: float, order: int
 ) -> Tensor:
@@ -64,12 +77,7 @@ def motion_difference_error(
     over the whole crop, seams included: 1 = velocity (m/s), 2 = acceleration (m/s^2). A seam
     between two tokens' frames that the positions hide (each side close to its own frames)
     is a step in velocity and a spike in acceleration."""
-    diff = joint_world_from_features(root_pos, body_raw) - joint_world_from_features(
-        root_pos, real_body_raw
-    )
-    for _ in range(order):
-        diff = diff[:, 1:] - diff[:, :-1]
-    return torch.linalg.vector_norm(diff, dim=-1).mean() * fps**order
+    return _difference_error(root_pos, body_raw, real_body_raw, fps, order).mean()
 
 
 def seam_difference_error(
@@ -78,17 +86,13 @@ def seam_difference_error(
     """``motion_difference_error`` over the differences whose frames span a seam between two
     tokens' patches only (the crop starts on a patch): where the decoder's patches meet, a
     step that the whole-crop mean dilutes ``patch`` times over."""
-    diff = joint_world_from_features(root_pos, body_raw) - joint_world_from_features(
-        root_pos, real_body_raw
-    )
-    for _ in range(order):
-        diff = diff[:, 1:] - diff[:, :-1]
+    error = _difference_error(root_pos, body_raw, real_body_raw, fps, order)
     # Difference i reads frames i..i+order: it spans the seam before frame k * patch when
     # k * patch - order <= i <= k * patch - 1.
-    index = torch.arange(diff.shape[1], device=diff.device)
+    index = torch.arange(error.shape[1], device=error.device)
     offset = (index + order) % patch
     spans = (offset < order) & (index + order >= patch)
-    return torch.linalg.vector_norm(diff[:, spans], dim=-1).mean() * fps**order
+    return error[:, spans].mean()
 
 
 def fk_consistency(
