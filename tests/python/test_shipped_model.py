@@ -95,8 +95,8 @@ def test_prompts_change_the_motion(runner: CliRunner) -> None:
 
 @pytest.mark.requires_build
 def test_a_prompt_change_switches_the_action_within_two_seconds(runner: CliRunner) -> None:
-    """Over seeds 0 to 3 (one seed is a draw: of seeds 0 to 11, the shipped stage 29 and
-    stage 25 each raised the hand 0.4 m within 2 s with 11), the hand goes up with most."""
+    """Over seeds 0 to 3 (one seed is a draw: of seeds 0 to 11, the shipped model, stage 29
+    and stage 25 each raised the hand 0.4 m within 2 s with 11), the hand goes up with most."""
     timeline = {
         "prompts": [
             {"time": 0.0, "text": "a person walks forward"},
