@@ -76,6 +76,17 @@ class TokenizerConfig:
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
+    def without_seam_parts(self) -> TokenizerConfig:
+        """This config with the decoder's seam parts at their defaults (none): what a decoder
+        fine-tune may change and the latent codes do not depend on."""
+        defaults = TokenizerConfig()
+        return replace(
+            self,
+            seam_filter_frames=defaults.seam_filter_frames,
+            seam_overlap_frames=defaults.seam_overlap_frames,
+            seam_overlap_contacts=defaults.seam_overlap_contacts,
+        )
+
     @classmethod
     def from_dict(cls, values: dict[str, Any]) -> TokenizerConfig:
         known = {k: v for k, v in values.items() if k in cls.__dataclass_fields__}
@@ -139,9 +150,11 @@ def causal_bias(tokens: int, batch: int, device: torch.device) -> Tensor:
 
 # The tokenizer's two halves, by module name: the encoder (encoder.onnx; its codes are what a
 # denoiser learns) and the decoder (decoder.onnx).
+# The decoder's optional seam parts (None when absent).
+SEAM_MODULES = ("dec_overlap", "seam_filter")
 TOKENIZER_PARTS = {
     "encoder": ("enc_in", "encoder", "enc_out"),
-    "decoder": ("dec_in", "decoder", "dec_out", "dec_overlap", "seam_filter"),
+    "decoder": ("dec_in", "decoder", "dec_out", *SEAM_MODULES),
 }
 
 
@@ -281,7 +294,7 @@ class BodyTokenizer(nn.Module):
         grown = BodyTokenizer(replace(c, **changes))
         missing, unexpected = grown.load_state_dict(self.state_dict(), strict=False)
         if unexpected or any(
-            not key.startswith(("seam_filter.", "dec_overlap.")) for key in missing
+            not key.startswith(tuple(module + "." for module in SEAM_MODULES)) for key in missing
         ):
             raise ValueError(f"tokenizer: cannot add seam parts ({missing}, {unexpected})")
         if "seam_overlap_frames" in changes:

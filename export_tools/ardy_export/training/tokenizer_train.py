@@ -275,15 +275,8 @@ def attach_tokenizer(denoiser: Path, tokenizer: Path, out: Path) -> Path:
         raise ValueError(f"{denoiser}: not a denoiser checkpoint (kind {ckpt.get('kind')!r})")
     tok, tok_ckpt = load_tokenizer(tokenizer)
     # The seam parts are the decoder's own: the codes the denoiser learned stay as they were.
-    decoder_only = {
-        "seam_filter_frames": 0,
-        "seam_overlap_frames": 0,
-        "seam_overlap_contacts": True,
-    }
-    if {**tok.config.to_dict(), **decoder_only} != {
-        **TokenizerConfig.from_dict(ckpt["tokenizer_config"]).to_dict(),
-        **decoder_only,
-    }:
+    base_config = TokenizerConfig.from_dict(ckpt["tokenizer_config"])
+    if tok.config.without_seam_parts() != base_config.without_seam_parts():
         raise ValueError(f"{tokenizer}: its tokenizer config differs from {denoiser}'s")
     if tok_ckpt["stats"] != ckpt["stats"]:
         raise ValueError(f"{tokenizer}: its feature statistics differ from {denoiser}'s")
