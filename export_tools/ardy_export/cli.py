@@ -10,6 +10,7 @@ from pathlib import Path
 from ardy_export import fixtures
 from ardy_export.data.cli import add_data_commands
 from ardy_export.evaluation.cli import add_eval_commands
+from ardy_export.runtime_settings import RUNTIME_SAMPLING_DEFAULTS
 from ardy_export.text.cli import add_text_commands
 from ardy_export.training.cli import add_training_commands
 
@@ -39,6 +40,9 @@ def _export(args: argparse.Namespace) -> int:
             args.out,
             provenance={"checkpoint": str(checkpoint), "data": args.data_note},
             text_weights=args.text_weights,
+            output_smoothing_frames=args.output_smoothing_frames,
+            interpolate_root=args.interpolate_root,
+            path_guidance_scale=args.path_guidance_scale,
         )
     except PackageError as error:
         print(f"ardy-export export: {error}", file=sys.stderr)
@@ -46,6 +50,8 @@ def _export(args: argparse.Namespace) -> int:
     errors = description["provenance"]["parity_max_abs_error"]
     for path in sorted(Path(args.out).iterdir()):
         print(f"wrote {path} ({path.stat().st_size / 1e6:.2f} MB)")
+    sampling = description["sampling"]
+    print("sampling: " + ", ".join(f"{k} {v}" for k, v in sampling.items()))
     print(
         "ONNX Runtime vs PyTorch, max abs error: "
         + ", ".join(f"{k} {v:.2g}" for k, v in errors.items())
@@ -129,6 +135,25 @@ def build_parser() -> argparse.ArgumentParser:
         default="int8",
         help="text encoder weights: int8 (24 MB, cosine >= 0.998 to float32) or float32 "
         "(91 MB) (default: %(default)s)",
+    )
+    unset = "(default: the checkpoint's sampling defaults, else %s)"
+    export.add_argument(
+        "--output-smoothing-frames",
+        type=float,
+        help="sigma in frames of the runtime's output filter, 0 for none "
+        + unset % RUNTIME_SAMPLING_DEFAULTS["output_smoothing_frames"],
+    )
+    export.add_argument(
+        "--interpolate-root",
+        action=argparse.BooleanOptionalAction,
+        help="whether the runtime turns sparse root targets into paths "
+        + unset % RUNTIME_SAMPLING_DEFAULTS["interpolate_root"],
+    )
+    export.add_argument(
+        "--path-guidance-scale",
+        type=float,
+        help="multiplier of w_con in windows whose goals are a dense root path alone, "
+        "0 < scale <= 1 " + unset % RUNTIME_SAMPLING_DEFAULTS["path_guidance_scale"],
     )
     export.set_defaults(handler=_export)
 

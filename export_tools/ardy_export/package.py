@@ -45,6 +45,7 @@ from ardy_export.models.graphs import (
     example_denoiser_inputs,
 )
 from ardy_export.onnx_files import save_clean
+from ardy_export.runtime_settings import MAX_OUTPUT_SMOOTHING_FRAMES, runtime_sampling
 from ardy_export.sampling.sampler import ModelBundle
 from ardy_export.text.export import export_text_encoder
 
@@ -69,20 +70,6 @@ GRAPH_FILES = {
 # (history, future) lengths checked for the denoiser, token counts for the tokenizer graphs.
 PARITY_HISTORY_FUTURE = ((0, 0), (1, 0), (0, 2), (3, 1), (8, 4))
 PARITY_TOKENS = (1, 3, 14)
-
-
-# Sigma (frames) of the runtime's Gaussian output filter over the decoded motion: the 4-frame
-# patches of the tokenizer leave seams (see src/motion_filter.hpp and docs/evaluation). 1.0
-# since stage 13: 1.5 made its motion smoother than the data (jerk 24.7 against 60.2 m/s^3)
-# and cost R-precision; 1.0 gives 40.7 with the seams still 1.3x the inside of a patch.
-OUTPUT_SMOOTHING_FRAMES = 1.0
-
-# Multiplier of w_con in windows whose goals are a dense root path alone (src/sampler.hpp
-# WindowInput::path_guidance_scale): at full w_con a character standing or walking under a
-# steered path slides its feet (stage 29: 0.48 m/s on the evaluation's dense paths, standing
-# gestures 0.25 m/s against the data's 0.004); at half, 0.26 and 0.02 with every constraint
-# error unchanged (the root is overwritten with the path either way).
-PATH_GUIDANCE_SCALE = 0.5
 
 
 class PackageError(RuntimeError):
@@ -462,9 +449,9 @@ def export_package(
     tiny_text_seed: int | None = None,
     text_max_tokens: int | None = None,
     text_weights: str = "float32",
-    output_smoothing_frames: float = OUTPUT_SMOOTHING_FRAMES,
-    interpolate_root: bool = True,
-    path_guidance_scale: float = PATH_GUIDANCE_SCALE,
+    output_smoothing_frames: float | None = None,
+    interpolate_root: bool | None = None,
+    path_guidance_scale: float | None = None,
 ) -> dict[str, Any]:
     """Writes a complete, checked model package into ``out_dir``; returns its model.json.
 
@@ -474,10 +461,24 @@ def export_package(
     ``output_smoothing_frames`` is the runtime's output filter (src/motion_filter.hpp);
     ``interpolate_root`` makes the runtime turn sparse root targets into paths
     (``sampling.constraints.interpolate_root``); ``path_guidance_scale`` multiplies w_con in
-    windows whose goals are a dense root path alone (0 < scale <= 1).
+    windows whose goals are a dense root path alone (0 < scale <= 1). Each of these three
+    left None comes from the checkpoint's sampling defaults, else RUNTIME_SAMPLING_DEFAULTS.
     """
-    if not 0.0 < path_guidance_scale <= 1.0:
-        raise PackageError(f"path_guidance_scale is {path_guidance_scale}, expected 0 < scale <= 1")
+    runtime = runtime_sampling(
+        bundle.defaults,
+        output_smoothing_frames=output_smoothing_frames,
+        interpolate_root=interpolate_root,
+        path_guidance_scale=path_guidance_scale,
+    )
+    if not 0.0 < runtime["path_guidance_scale"] <= 1.0:
+        raise PackageError(
+            f"path_guidance_scale is {runtime['path_guidance_scale']}, expected 0 < scale <= 1"
+        )
+    if not 0.0 <= runtime["output_smoothing_frames"] <= MAX_OUTPUT_SMOOTHING_FRAMES:
+        raise PackageError(
+            f"output_smoothing_frames is {runtime['output_smoothing_frames']}, expected 0 to "
+            f"{MAX_OUTPUT_SMOOTHING_FRAMES} frames"
+        )
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     errors = export_graphs(bundle, out)
@@ -487,8 +488,6 @@ def export_package(
     text = export_text_encoder(out, **text_kwargs)
     info = {"commit": _git_commit(), **(provenance or {}), "parity_max_abs_error": errors}
     description = model_json(bundle, out, text, info)
-    description["sampling"]["output_smoothing_frames"] = float(output_smoothing_frames)
-    description["sampling"]["interpolate_root"] = bool(interpolate_root)
-    description["sampling"]["path_guidance_scale"] = float(path_guidance_scale)
+    description["sampling"].update(runtime)
     (out / MODEL_FILE).write_text(json.dumps(description, indent=1) + "\n", encoding="utf-8")
     return description

@@ -33,9 +33,11 @@ from ardy_export.package import (
     PackageError,
     check_graphs,
     export_graphs,
+    export_package,
     model_json,
     run_denoiser_graphs,
 )
+from ardy_export.runtime_settings import RUNTIME_SAMPLING_DEFAULTS
 from ardy_export.sampling.sampler import PromptEvent, RolloutConfig, rollout
 from ardy_export.sampling.tiny import random_bundle
 from fixture_compare import assert_same_fixture
@@ -133,6 +135,40 @@ def test_graphs_of_a_denoiser_with_condition_modulation_match_pytorch(tmp_path: 
     described = model_json(bundle, tmp_path, text=text, provenance={})
     assert described["denoiser"]["condition_modulation"] is True
     assert "condition_modulation" not in committed["denoiser"]
+
+
+def test_runtime_settings_come_from_the_call_then_the_checkpoint_then_the_defaults(
+    tmp_path: Path,
+) -> None:
+    """What export writes into model.json's sampling block: a recovered or trained checkpoint
+    that names a setting keeps it, an argument overrides it, the rest are the defaults."""
+    bundle = random_bundle(seed=0, text_dim=TINY_TEXT_DIM)
+    bundle.defaults = {"output_smoothing_frames": 0.75, "path_guidance_scale": 0.25}
+    sampling = export_package(bundle, tmp_path, tiny_text_seed=0, path_guidance_scale=1.0)[
+        "sampling"
+    ]
+    assert sampling["output_smoothing_frames"] == 0.75
+    assert sampling["path_guidance_scale"] == 1.0
+    assert sampling["interpolate_root"] is RUNTIME_SAMPLING_DEFAULTS["interpolate_root"]
+    assert json.loads((tmp_path / "model.json").read_text())["sampling"] == sampling
+
+
+@pytest.mark.parametrize(
+    ("setting", "value", "message"),
+    [
+        ("path_guidance_scale", 0.0, "path_guidance_scale is 0.0, expected 0 < scale <= 1"),
+        ("output_smoothing_frames", -1.0, "output_smoothing_frames is -1.0, expected 0 to 10"),
+    ],
+)
+def test_a_runtime_setting_the_runtime_would_refuse_is_refused_before_writing(
+    tmp_path: Path, setting: str, value: float, message: str
+) -> None:
+    bundle = random_bundle(seed=0, text_dim=TINY_TEXT_DIM)
+    bundle.defaults = {setting: value}
+    out = tmp_path / "package"
+    with pytest.raises(PackageError, match=message):
+        export_package(bundle, out, tiny_text_seed=0)
+    assert not out.exists()
 
 
 @pytest.mark.parametrize(

@@ -14,6 +14,7 @@ import torch
 from ardy_export.models.denoiser import Denoiser, DenoiserConfig
 from ardy_export.package import export_graphs
 from ardy_export.recover import RecoverError, probed_goal_weights, recover_checkpoint
+from ardy_export.runtime_settings import RUNTIME_SAMPLING_DEFAULTS
 from ardy_export.sampling.sampler import ModelBundle
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -27,6 +28,12 @@ def test_the_shipped_package_gives_back_weights_that_reproduce_its_graphs(tmp_pa
     assert set(errors) == {"denoiser", "decoder", "encoder"}
     assert max(errors.values()) <= 1e-4
     bundle = ModelBundle.from_checkpoint(out)
+    # Every sampling setting of the package comes back, so export writes them again.
+    sampling = json.loads((PACKAGE / "model.json").read_text())["sampling"]
+    assert bundle.defaults == {
+        "steps": sampling["default_steps"],
+        **{name: sampling[name] for name in ("w_text", "w_con", *RUNTIME_SAMPLING_DEFAULTS)},
+    }
     # The base is stage 2; the package is a later, fine-tuned stage: the weights moved
     # (the package may also carry weights the base has none of, its condition modulation).
     base = ModelBundle.from_checkpoint(BASE)
