@@ -23,7 +23,7 @@ from ardy_export.sampling.constraints import RootPath
 from ardy_export.sampling.sampler import ModelBundle, PromptEvent, RolloutConfig, rollout
 from ardy_export.training.adapters import canonical_prompt, hashed_embedding
 from ardy_export.training.denoiser_train import train_denoiser
-from ardy_export.training.tokenizer_train import TrainResult, train_tokenizer
+from ardy_export.training.tokenizer_train import TrainResult, attach_tokenizer, train_tokenizer
 
 ARCHIVE = "dataset-1.tar.xz"
 MEMBER = "Bandai-Namco-Research-Motiondataset-1/data/dataset-1_{}.bvh"
@@ -411,7 +411,8 @@ def test_decoder_fine_tune_keeps_the_encoder_and_attaches_to_the_denoiser(
     """train.freeze: [encoder] with init_from a denoiser checkpoint moves only the decoder
     (with the velocity, acceleration and ground-truth skate terms), resumes, and
     attach-tokenizer puts it
-    into a copy of the denoiser checkpoint; a tokenizer with another encoder is refused."""
+    into a copy of the denoiser checkpoint; a tokenizer with another encoder, config or
+    feature statistics is refused."""
     synthetic = {"source": "synthetic", "synthetic_clips": 6}
     tiny = {"latent_dim": 4, "fsq_levels": 8, "width": 16, "layers": 1, "heads": 2, "ff_mult": 2}
     steps = {"batch_size": 4, "log_every": 2, "warmup_steps": 1, "crop_tokens": [2, 4]}
@@ -504,6 +505,21 @@ def test_decoder_fine_tune_keeps_the_encoder_and_attaches_to_the_denoiser(
         == 1
     )
     assert not refused.exists()
+    # The same decoder under another config (a field no weight depends on) or statistics:
+    # refused, with the reason.
+    for what_differs, change in (
+        ("tokenizer config", lambda c: c["config"].update(fps=30.0)),
+        (
+            "feature statistics",
+            lambda c: c["stats"].update(mean=[m + 1.0 for m in c["stats"]["mean"]]),
+        ),
+    ):
+        other = torch.load(tmp_path / "tune" / "final.pt", weights_only=False)
+        change(other)
+        torch.save(other, tmp_path / "other.pt")
+        with pytest.raises(ValueError, match=f"its {what_differs} differ"):
+            attach_tokenizer(tmp_path / "den" / "final.pt", tmp_path / "other.pt", refused)
+        assert not refused.exists()
     # A seam filter grown onto the decoder (and the seam jerk term) attaches too: the
     # denoiser checkpoint then carries the filter and its config.
     seam_cfg = {
