@@ -3,8 +3,9 @@ extends VBoxContainer
 ## A "Settings" button that opens a panel of the generator's sampling and
 ## streaming settings, each control bound live to its property. The settings
 ## the node reads only when generation starts are starred, and Restart starts
-## the motion again with them. Placed at the top right unless anchors and
-## offsets are set after new().
+## the motion again with them. While open it follows the generator: a value
+## that other code sets shows within a frame. Placed at the top right unless
+## anchors and offsets are set after new().
 
 ## After Restart: the node dropped its goals and queued prompts with the motion.
 signal restarted
@@ -21,6 +22,17 @@ const MIN_PATH_GUIDANCE := 0.05
 const MAX_REPLAN_FRAMES := 40
 const MODEL_FPS := 20.0
 const MAX_SEED := 2147483647
+# The generator's properties the panel shows.
+const SHOWN := [
+	&"steps",
+	&"text_guidance",
+	&"constraint_guidance",
+	&"path_guidance_scale",
+	&"history_seconds",
+	&"replan_buffer_frames",
+	&"seed",
+	&"foot_lock",
+]
 
 var generator: MotionGenerator
 ## Whether the panel starts open.
@@ -39,6 +51,8 @@ var _replan: SpinBox
 var _replan_value: Label
 var _seed: SpinBox
 var _foot_lock: CheckBox
+# The values shown, as last read from the generator.
+var _shown_values := []
 
 
 func _init() -> void:
@@ -80,6 +94,13 @@ func _ready() -> void:
 	column.add_child(_footer())
 	toggle.button_pressed = expanded
 	_set_expanded(expanded)
+
+
+# The node has no signal for its settings: compare what it holds each frame
+# (eight property reads) and redraw only on a change.
+func _process(_delta: float) -> void:
+	if generator != null and _values() != _shown_values:
+		_refresh()
 
 
 # Read live by the node: they change the next window.
@@ -230,6 +251,7 @@ func _footer() -> HBoxContainer:
 func _set_expanded(on: bool) -> void:
 	expanded = on
 	_body.visible = on
+	set_process(on)
 	if on:
 		_refresh()  # other code may have changed the generator meanwhile
 
@@ -253,6 +275,7 @@ func _restart() -> void:
 func _refresh() -> void:
 	if generator == null or _grid == null:
 		return
+	_shown_values = _values()
 	var steps := generator.steps
 	_steps_default.set_pressed_no_signal(steps <= 0)
 	_steps.set_value_no_signal(steps if steps > 0 else MODEL_STEPS)
@@ -266,6 +289,10 @@ func _refresh() -> void:
 	_replan_value.text = "%.2f s" % (generator.replan_buffer_frames / MODEL_FPS)
 	_seed.set_value_no_signal(generator.seed)
 	_foot_lock.set_pressed_no_signal(generator.foot_lock)
+
+
+func _values() -> Array:
+	return SHOWN.map(func(property: StringName) -> Variant: return generator.get(property))
 
 
 func _show_weight(weight: float, row: Dictionary) -> void:

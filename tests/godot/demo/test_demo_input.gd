@@ -6,7 +6,7 @@ extends SceneTree
 ## what it does and comes back with the Up key, a preset button applies its
 ## prompt, a keyframe preset shows a ghost that goes once the pose is reached,
 ## the settings panel's path guidance slider and default box set the node's
-## path_guidance_scale.
+## path_guidance_scale, and the open panel follows a value set by code.
 ## tests/godot/run.sh runs it in a copy of the demo project; it prints
 ## "N passed, N failed".
 
@@ -248,6 +248,19 @@ func _set_path_guidance() -> void:
 		generator.path_guidance_scale < 0.0 and value.text == "auto",
 		"the default box gives it back to the model (%.2f)" % generator.path_guidance_scale
 	)
+	# A value other code sets while the panel is open shows within a frame.
+	generator.path_guidance_scale = 0.35
+	await process_frame
+	await process_frame
+	_check(
+		(
+			not use_default.button_pressed
+			and value.text == "0.35"
+			and is_equal_approx(slider.value, 0.35)
+		),
+		"the open panel follows a value set by code ('%s')" % value.text
+	)
+	generator.path_guidance_scale = -1.0
 	SyntheticInput.click(root, toggle.get_global_rect().get_center())
 	await process_frame
 	_check(not row_title.is_visible_in_tree(), "the Settings button closes the panel")
