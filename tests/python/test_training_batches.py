@@ -102,6 +102,15 @@ def test_denoiser_windows(seqs: list[TrainSequence]) -> None:
     balanced = WindowSamplingConfig(content_balance=1.0)
     b = denoiser_batch(enc, rng, 8, cfg, MEAN, STD, bank, only_paths, balanced)
     assert b["x0"].shape == (8, 10, cfg.token_dim)
+    # A balanced text share: that part of the batch (its first windows) carries no goals,
+    # the rest the constraint patterns (here always a path).
+    text_share = WindowSamplingConfig(content_balance=1.0, balanced_text_share=0.25)
+    b = denoiser_batch(enc, rng, 8, cfg, MEAN, STD, bank, only_paths, text_share)
+    has_goals = b["window_goal_mask"].flatten(1).any(1) | b["future_goal_mask"].flatten(1).any(1)
+    assert has_goals.tolist() == [False] * 2 + [True] * 6
+    for share, exponent in ((1.5, 1.0), (-0.1, 1.0), (0.5, 0.0)):
+        with pytest.raises(ValueError, match="balanced_text_share"):
+            WindowSamplingConfig(content_balance=exponent, balanced_text_share=share)
 
 
 @pytest.mark.parametrize("pattern", PATTERNS)

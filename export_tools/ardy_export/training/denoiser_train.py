@@ -225,6 +225,7 @@ def _train(
         text_drop=float(settings.extra.get("text_drop", 0.1)),
         constraint_drop=float(settings.extra.get("constraint_drop", 0.1)),
         content_balance=float(data_cfg.get("content_balance", 0.0)),
+        balanced_text_share=float(data_cfg.get("balanced_text_share", 0.0)),
     )
     sampling_defaults = {"steps": 4, "w_text": 2.0, "w_con": 2.0}
     sampling_defaults.update(config.get("sampling", {}))
