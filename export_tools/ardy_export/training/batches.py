@@ -212,11 +212,11 @@ def denoiser_batch(
         raise ValueError(f"no encoded sequence has the {c} tokens of a window")
     # Drawn up front when balanced; one draw per window otherwise (as runs before had it).
     # With a balanced text share, the first windows of the batch are the balanced ones.
-    balanced = (
-        round(windows.balanced_text_share * batch_size)
-        if windows.balanced_text_share
-        else (batch_size if windows.content_balance else 0)
-    )
+    text_only = windows.balanced_text_share > 0.0
+    if text_only:
+        balanced = round(windows.balanced_text_share * batch_size)
+    else:
+        balanced = batch_size if windows.content_balance else 0
     picks = (
         rng.choice(
             len(usable),
@@ -226,7 +226,6 @@ def denoiser_batch(
         if balanced
         else None
     )
-    text_only = windows.balanced_text_share > 0.0
     samples = []
     for i in range(batch_size):
         from_balanced = i < balanced
