@@ -73,7 +73,7 @@ extern "C" {
 #define ARDY_VERSION_MINOR 1
 #define ARDY_VERSION_PATCH 0
 /* Changes whenever a struct layout or a signature of this header changes. */
-#define ARDY_ABI_VERSION 3
+#define ARDY_ABI_VERSION 4
 
 typedef struct ardy_model ardy_model;     /* a loaded model package (immutable) */
 typedef struct ardy_planner ardy_planner; /* one character's streaming planner */
@@ -156,6 +156,8 @@ typedef struct ardy_planner_params {
   float w_con;                    /* constraint guidance; NaN: the package default */
   float path_guidance_scale;      /* w_con times this where the goals are a dense root path alone (keyboard
                                    * steering, clicked paths), in (0, 1]; NaN: the package default */
+  float text_only_guidance_scale; /* w_text times this where a window has a prompt and no goals, in (0, 4];
+                                   * NaN: the package default */
   double history_seconds;         /* history window (default 8; clamped to the package's maximum) */
   double future_seconds;          /* out-of-window goal horizon; < 0: the package's maximum */
   double start_x, start_z;        /* where the character starts */
@@ -266,9 +268,9 @@ ARDY_API ardy_status ardy_planner_clear_constraints(ardy_planner* planner);
 ARDY_API ardy_status ardy_planner_set_target_velocity(ardy_planner* planner, double vx, double vz);
 ARDY_API ardy_status ardy_planner_clear_target_velocity(ardy_planner* planner);
 /* Sampling of the windows to come: steps 0, a NaN value: unchanged
- * (path_guidance_scale: ardy_planner_params). */
+ * (path_guidance_scale, text_only_guidance_scale: ardy_planner_params). */
 ARDY_API ardy_status ardy_planner_set_sampling(ardy_planner* planner, int32_t steps, float w_text, float w_con,
-                                               float path_guidance_scale);
+                                               float path_guidance_scale, float text_only_guidance_scale);
 
 /* --- playback (never waits on inference, never allocates) ------------------ */
 

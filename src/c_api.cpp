@@ -349,6 +349,7 @@ ardy_planner_params ardy_planner_default_params(void) {
   p.w_text = NAN;
   p.w_con = NAN;
   p.path_guidance_scale = NAN;
+  p.text_only_guidance_scale = NAN;
   p.history_seconds = c.history_seconds;
   p.future_seconds = -1.0;
   p.start_x = c.start_xz.x;
@@ -428,6 +429,12 @@ ardy_status ardy_planner_create(ardy_model* model, const ardy_planner_params* pa
               "ardy_planner_params: path_guidance_scale is " + number_text(p.path_guidance_scale) +
                   ", expected (0, 1] or NaN (the package default)");
       c.path_guidance_scale = p.path_guidance_scale;
+    }
+    if (!std::isnan(p.text_only_guidance_scale)) {
+      require(ardy::text_only_guidance_scale_in_range(p.text_only_guidance_scale),
+              "ardy_planner_params: text_only_guidance_scale is " + number_text(p.text_only_guidance_scale) +
+                  ", expected (0, 4] or NaN (the package default)");
+      c.text_only_guidance_scale = p.text_only_guidance_scale;
     }
     c.history_seconds = p.history_seconds;
     if (!(p.future_seconds < 0.0)) c.future_seconds = p.future_seconds;
@@ -649,13 +656,14 @@ ardy_status ardy_planner_clear_target_velocity(ardy_planner* planner) {
 }
 
 ardy_status ardy_planner_set_sampling(ardy_planner* planner, int32_t steps, float w_text, float w_con,
-                                      float path_guidance_scale) {
+                                      float path_guidance_scale, float text_only_guidance_scale) {
   return planner_call(planner, "ardy_planner_set_sampling", [&](ardy::Planner& p) {
     require(steps >= 0, "set_sampling: steps is " + std::to_string(steps) + ", expected 0 (unchanged) or more");
     p.set_sampling(steps > 0 ? std::optional<size_t>(static_cast<size_t>(steps)) : std::nullopt,
                    std::isnan(w_text) ? std::nullopt : std::optional<float>(w_text),
                    std::isnan(w_con) ? std::nullopt : std::optional<float>(w_con),
-                   std::isnan(path_guidance_scale) ? std::nullopt : std::optional<float>(path_guidance_scale));
+                   std::isnan(path_guidance_scale) ? std::nullopt : std::optional<float>(path_guidance_scale),
+                   std::isnan(text_only_guidance_scale) ? std::nullopt : std::optional<float>(text_only_guidance_scale));
   });
 }
 

@@ -674,6 +674,13 @@ void ModelPackage::Impl::parse(const Manifest& m) {
     }
     defaults.path_guidance_scale = static_cast<float>(scale);
   }
+  if (m.has("sampling.text_only_guidance_scale")) {
+    const double scale = m.number("sampling.text_only_guidance_scale");
+    if (!text_only_guidance_scale_in_range(scale)) {
+      m.fail("sampling.text_only_guidance_scale", "is " + describe_json(scale) + ", expected a number in (0, 4]");
+    }
+    defaults.text_only_guidance_scale = static_cast<float>(scale);
+  }
 
   // --- denoiser sizes ------------------------------------------------------------------------
   denoiser_sizes.two_stage = m.boolean("denoiser.two_stage");

@@ -87,11 +87,20 @@ struct SamplingDefaults {
   double output_smoothing_frames = 0.0;  // motion_filter.hpp; optional in model.json (absent: off)
   bool interpolate_root = false;         // GoalSpec::interpolate_root; optional in model.json (absent: off)
   float path_guidance_scale = 1.0f;      // WindowInput::path_guidance_scale; optional (absent: 1), (0, 1]
+  float text_only_guidance_scale = 1.0f;  // WindowInput::text_only_guidance_scale; optional (absent: 1), (0, 4]
 };
 
 // The range every reader of path_guidance_scale accepts: 0 would switch the
 // goals' guidance off on dense paths, above 1 would push them harder than elsewhere.
 inline bool path_guidance_scale_in_range(double scale) { return scale > 0.0 && scale <= 1.0; }
+
+// The range every reader of text_only_guidance_scale accepts: 0 would switch
+// the text off where nothing else steers; past 4 (w_text 8 at the default 2)
+// the motion breaks up.
+constexpr double kMaxTextOnlyGuidanceScale = 4.0;
+inline bool text_only_guidance_scale_in_range(double scale) {
+  return scale > 0.0 && scale <= kMaxTextOnlyGuidanceScale;
+}
 
 // The names and signature of one graph (graphs.<key> of model.json).
 struct GraphSpec {

@@ -176,6 +176,7 @@ Planner::Planner(std::shared_ptr<const ModelPackage> package, PlannerConfig conf
   s.start_xz = config_.start_xz;
   s.interpolate_root = config_.interpolate_root;
   s.path_guidance_scale = config_.path_guidance_scale;
+  s.text_only_guidance_scale = config_.text_only_guidance_scale;
   s.max_root_speed = config_.max_root_speed;
   s.seed = config_.seed;
   smoothing_frames_ = config_.output_smoothing_frames.value_or(package_->sampling_defaults().output_smoothing_frames);
@@ -592,7 +593,8 @@ void Planner::set_target_velocity(double vx, double vz) {
 void Planner::clear_target_velocity() { push(VelocityCommand{std::nullopt}, true); }
 
 void Planner::set_sampling(std::optional<size_t> steps, std::optional<float> w_text, std::optional<float> w_con,
-                           std::optional<float> path_guidance_scale) {
+                           std::optional<float> path_guidance_scale,
+                           std::optional<float> text_only_guidance_scale) {
   const size_t n = package_->schedule().num_steps();
   if (steps && (*steps < 1 || *steps > n)) {
     throw Error("set_sampling: steps is " + std::to_string(*steps) + ", expected 1.." + std::to_string(n) +
@@ -603,7 +605,11 @@ void Planner::set_sampling(std::optional<size_t> steps, std::optional<float> w_t
   if (path_guidance_scale && !path_guidance_scale_in_range(*path_guidance_scale)) {
     throw Error("set_sampling: path_guidance_scale is " + number_text(*path_guidance_scale) + ", expected (0, 1]");
   }
-  push(SamplingCommand{steps, w_text, w_con, path_guidance_scale}, false);
+  if (text_only_guidance_scale && !text_only_guidance_scale_in_range(*text_only_guidance_scale)) {
+    throw Error("set_sampling: text_only_guidance_scale is " + number_text(*text_only_guidance_scale) +
+                ", expected (0, 4]");
+  }
+  push(SamplingCommand{steps, w_text, w_con, path_guidance_scale, text_only_guidance_scale}, false);
 }
 
 // --- reports ---------------------------------------------------------------------------
@@ -805,6 +811,7 @@ void Planner::apply_one(Command& command) {
     if (s->w_text) m.settings.w_text = s->w_text;
     if (s->w_con) m.settings.w_con = s->w_con;
     if (s->path_guidance_scale) m.settings.path_guidance_scale = s->path_guidance_scale;
+    if (s->text_only_guidance_scale) m.settings.text_only_guidance_scale = s->text_only_guidance_scale;
   }
 }
 

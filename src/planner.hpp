@@ -116,6 +116,7 @@ struct PlannerConfig {
   bool joint_reach = true;
   std::optional<bool> interpolate_root;           // GoalSpec::interpolate_root; default: the package's
   std::optional<float> path_guidance_scale;       // WindowInput::path_guidance_scale; default: the package's
+  std::optional<float> text_only_guidance_scale;  // WindowInput::text_only_guidance_scale; default: the package's
   double max_root_speed = kDefaultMaxRootSpeed;   // GoalSpec::max_root_speed (m/s; 0: no limit)
   glm::dvec2 start_xz{0.0, 0.0};              // where the character starts (without initial_history)
   // What the character was doing before the planner starts (an animation it
@@ -295,9 +296,11 @@ class Planner {
   void clear_target_velocity();
 
   // Sampling settings of the windows to come (unset: unchanged);
-  // path_guidance_scale in (0, 1] (WindowInput::path_guidance_scale).
+  // path_guidance_scale in (0, 1] (WindowInput::path_guidance_scale),
+  // text_only_guidance_scale in (0, 4] (WindowInput::text_only_guidance_scale).
   void set_sampling(std::optional<size_t> steps, std::optional<float> w_text, std::optional<float> w_con,
-                    std::optional<float> path_guidance_scale = std::nullopt);
+                    std::optional<float> path_guidance_scale = std::nullopt,
+                    std::optional<float> text_only_guidance_scale = std::nullopt);
 
   // --- reports ---
   PlannerStats stats() const;
@@ -342,6 +345,7 @@ class Planner {
     std::optional<float> w_text;
     std::optional<float> w_con;
     std::optional<float> path_guidance_scale;
+    std::optional<float> text_only_guidance_scale;
   };
   using Command = std::variant<PromptCommand, AddConstraintCommand, RemoveConstraintCommand,
                                ClearConstraintsCommand, VelocityCommand, SamplingCommand>;

@@ -62,6 +62,11 @@ RolloutConfig Rollout::resolve(const RolloutSettings& s) const {
     throw Error("rollout settings: path_guidance_scale is " + std::to_string(c.path_guidance_scale) +
                 ", expected (0, 1]");
   }
+  c.text_only_guidance_scale = s.text_only_guidance_scale.value_or(d.text_only_guidance_scale);
+  if (!text_only_guidance_scale_in_range(c.text_only_guidance_scale)) {
+    throw Error("rollout settings: text_only_guidance_scale is " + std::to_string(c.text_only_guidance_scale) +
+                ", expected (0, 4]");
+  }
   if (!std::isfinite(s.max_root_speed) || s.max_root_speed < 0.0) {
     throw Error("rollout settings: max_root_speed is " + std::to_string(s.max_root_speed) +
                 ", expected >= 0 m/s (0: no limit)");
@@ -236,6 +241,7 @@ WindowInput Rollout::prepare_window() const {
   in.w_text = config_.w_text;
   in.w_con = config_.w_con;
   in.path_guidance_scale = config_.path_guidance_scale;
+  in.text_only_guidance_scale = config_.text_only_guidance_scale;
   in.root_overwrite = config_.root_overwrite;
   in.root_continuity = config_.root_continuity;
   in.decode_context_tokens = config_.decode_context_tokens;

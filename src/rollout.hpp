@@ -58,6 +58,7 @@ struct RolloutSettings {
   bool root_continuity = true;           // WindowInput::root_continuity
   std::optional<bool> interpolate_root;  // GoalSpec::interpolate_root; default: the package's
   std::optional<float> path_guidance_scale;  // WindowInput::path_guidance_scale; default: the package's
+  std::optional<float> text_only_guidance_scale;  // WindowInput::text_only_guidance_scale; default: the package's
   double max_root_speed = kDefaultMaxRootSpeed;  // GoalSpec::max_root_speed (m/s; 0: no limit)
   uint64_t seed = 0;
 };
@@ -76,6 +77,7 @@ struct RolloutConfig {
   bool root_continuity = true;
   bool interpolate_root = false;
   float path_guidance_scale = 1.0f;
+  float text_only_guidance_scale = 1.0f;
   double max_root_speed = 0.0;
   uint64_t seed = 0;
 };

@@ -82,6 +82,10 @@ void check_window(const ModelPackage& package, const WindowInput& w, const std::
   if (!path_guidance_scale_in_range(w.path_guidance_scale)) {
     throw Error(where + ": path_guidance_scale is " + std::to_string(w.path_guidance_scale) + ", expected (0, 1]");
   }
+  if (!text_only_guidance_scale_in_range(w.text_only_guidance_scale)) {
+    throw Error(where + ": text_only_guidance_scale is " + std::to_string(w.text_only_guidance_scale) +
+                ", expected (0, 4]");
+  }
 }
 
 uint64_t splitmix64(uint64_t& state) {
@@ -465,8 +469,10 @@ std::vector<std::vector<float>> sample_windows(const ModelPackage& package,
   std::vector<std::vector<GuidanceRow>> rows_of;
   size_t h_max = 0;
   for (const WindowInput* w : windows) {
+    const bool has_goals = w->goals.has_constraints();
     const float w_con = w->goals.root_path_only ? w->w_con * w->path_guidance_scale : w->w_con;
-    rows_of.push_back(guidance_rows(w->w_text, w_con, w->text_embedding.has_value(), w->goals.has_constraints()));
+    const float w_text = has_goals ? w->w_text : w->w_text * w->text_only_guidance_scale;
+    rows_of.push_back(guidance_rows(w_text, w_con, w->text_embedding.has_value(), has_goals));
     if (rows_of.back().empty()) {
       // A guard: the weights sum to 1, so at least one row remains.
       throw Error("sample_windows: the guidance weights leave no denoiser row (w_text " + std::to_string(w->w_text) +

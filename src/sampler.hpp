@@ -112,6 +112,11 @@ struct WindowInput {
   // (WindowGoals::root_path_only): guidance that pushes a fully given root
   // path harder makes the body over-commit to it, feet sliding under it.
   float path_guidance_scale = 1.0f;
+  // w_text is multiplied by this where the window has a prompt and no goals:
+  // with goals the text and goal rows share the guidance, and a stronger text
+  // row pulls the body off the goals; alone, the text can take more (the
+  // prompt's motion is clearer and a new prompt shows sooner).
+  float text_only_guidance_scale = 1.0f;
   bool root_overwrite = true;
   // With root_overwrite, after the last step: the root position entries the
   // goals leave free are moved too, by the overwrite's displacement

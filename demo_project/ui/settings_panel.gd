@@ -19,6 +19,9 @@ const MODEL_STEPS := 4
 const MODEL_GUIDANCE := 2.0
 const MODEL_PATH_GUIDANCE := 0.5
 const MIN_PATH_GUIDANCE := 0.05
+const MODEL_TEXT_ONLY_GUIDANCE := 1.0
+const MIN_TEXT_ONLY_GUIDANCE := 0.25
+const MAX_TEXT_ONLY_GUIDANCE := 4.0
 const MAX_REPLAN_FRAMES := 40
 const MODEL_FPS := 20.0
 const MAX_SEED := 2147483647
@@ -28,6 +31,7 @@ const SHOWN := [
 	&"text_guidance",
 	&"constraint_guidance",
 	&"path_guidance_scale",
+	&"text_only_guidance_scale",
 	&"history_seconds",
 	&"replan_buffer_frames",
 	&"seed",
@@ -97,7 +101,7 @@ func _ready() -> void:
 
 
 # The node has no signal for its settings: compare what it holds each frame
-# (eight property reads) and redraw only on a change.
+# (nine property reads) and redraw only on a change.
 func _process(_delta: float) -> void:
 	if generator != null and _values() != _shown_values:
 		_refresh()
@@ -147,6 +151,18 @@ func _add_sampling_rows() -> void:
 		(
 			"Goal guidance times this while the only goal is a path (keys, clicked waypoints):"
 			+ "\nlower lets the feet slide less under it (path_guidance_scale)"
+		)
+	)
+	_add_weight_row(
+		"Text alone",
+		"text_only_guidance_scale",
+		MIN_TEXT_ONLY_GUIDANCE,
+		MAX_TEXT_ONLY_GUIDANCE,
+		0.05,
+		MODEL_TEXT_ONLY_GUIDANCE,
+		(
+			"Text guidance times this while there is no goal to follow:"
+			+ "\nhigher makes the prompt plainer and quicker to show (text_only_guidance_scale)"
 		)
 	)
 

@@ -43,6 +43,7 @@ def _export(args: argparse.Namespace) -> int:
             output_smoothing_frames=args.output_smoothing_frames,
             interpolate_root=args.interpolate_root,
             path_guidance_scale=args.path_guidance_scale,
+            text_only_guidance_scale=args.text_only_guidance_scale,
         )
     except PackageError as error:
         print(f"ardy-export export: {error}", file=sys.stderr)
@@ -154,6 +155,12 @@ def build_parser() -> argparse.ArgumentParser:
         type=float,
         help="multiplier of w_con in windows whose goals are a dense root path alone, "
         "0 < scale <= 1 " + unset % RUNTIME_SAMPLING_DEFAULTS["path_guidance_scale"],
+    )
+    export.add_argument(
+        "--text-only-guidance-scale",
+        type=float,
+        help="multiplier of w_text in windows with a prompt and no goals, 0 < scale <= 4 "
+        + unset % RUNTIME_SAMPLING_DEFAULTS["text_only_guidance_scale"],
     )
     export.set_defaults(handler=_export)
 

@@ -320,6 +320,7 @@ def _write_test_package(out: Path, seed: int, windows: int) -> dict[str, Any]:
         output_smoothing_frames=0.0,  # the goldens are the model's raw output
         interpolate_root=False,  # and its goals the constraints as given
         path_guidance_scale=1.0,  # under the one w_con of the goldens' rollout
+        text_only_guidance_scale=1.0,  # and its one w_text
     )
     # The commit differs from run to run; the golden files must not.
     description["provenance"].pop("commit", None)

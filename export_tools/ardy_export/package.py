@@ -45,7 +45,11 @@ from ardy_export.models.graphs import (
     example_denoiser_inputs,
 )
 from ardy_export.onnx_files import save_clean
-from ardy_export.runtime_settings import MAX_OUTPUT_SMOOTHING_FRAMES, runtime_sampling
+from ardy_export.runtime_settings import (
+    MAX_OUTPUT_SMOOTHING_FRAMES,
+    MAX_TEXT_ONLY_GUIDANCE_SCALE,
+    runtime_sampling,
+)
 from ardy_export.sampling.sampler import ModelBundle
 from ardy_export.text.export import export_text_encoder
 
@@ -452,6 +456,7 @@ def export_package(
     output_smoothing_frames: float | None = None,
     interpolate_root: bool | None = None,
     path_guidance_scale: float | None = None,
+    text_only_guidance_scale: float | None = None,
 ) -> dict[str, Any]:
     """Writes a complete, checked model package into ``out_dir``; returns its model.json.
 
@@ -461,18 +466,26 @@ def export_package(
     ``output_smoothing_frames`` is the runtime's output filter (src/motion_filter.hpp);
     ``interpolate_root`` makes the runtime turn sparse root targets into paths
     (``sampling.constraints.interpolate_root``); ``path_guidance_scale`` multiplies w_con in
-    windows whose goals are a dense root path alone (0 < scale <= 1). Each of these three
-    left None comes from the checkpoint's sampling defaults, else RUNTIME_SAMPLING_DEFAULTS.
+    windows whose goals are a dense root path alone (0 < scale <= 1);
+    ``text_only_guidance_scale`` multiplies w_text in windows with a prompt and no goals
+    (0 < scale <= 4). Each of these left None comes from the checkpoint's sampling defaults,
+    else RUNTIME_SAMPLING_DEFAULTS.
     """
     runtime = runtime_sampling(
         bundle.defaults,
         output_smoothing_frames=output_smoothing_frames,
         interpolate_root=interpolate_root,
         path_guidance_scale=path_guidance_scale,
+        text_only_guidance_scale=text_only_guidance_scale,
     )
     if not 0.0 < runtime["path_guidance_scale"] <= 1.0:
         raise PackageError(
             f"path_guidance_scale is {runtime['path_guidance_scale']}, expected 0 < scale <= 1"
+        )
+    if not 0.0 < runtime["text_only_guidance_scale"] <= MAX_TEXT_ONLY_GUIDANCE_SCALE:
+        raise PackageError(
+            f"text_only_guidance_scale is {runtime['text_only_guidance_scale']}, expected "
+            f"0 < scale <= {MAX_TEXT_ONLY_GUIDANCE_SCALE}"
         )
     if not 0.0 <= runtime["output_smoothing_frames"] <= MAX_OUTPUT_SMOOTHING_FRAMES:
         raise PackageError(

@@ -34,7 +34,7 @@ from ardy_export.models.denoiser import Denoiser, DenoiserConfig
 from ardy_export.models.graphs import DENOISER_MODULE_INPUTS, example_denoiser_inputs
 from ardy_export.models.tokenizer import TOKENIZER_PARTS, BodyTokenizer, TokenizerConfig
 from ardy_export.package import run_denoiser_graphs
-from ardy_export.runtime_settings import RUNTIME_SAMPLING_DEFAULTS
+from ardy_export.runtime_settings import RUNTIME_SAMPLING_ABSENT, RUNTIME_SAMPLING_DEFAULTS
 from ardy_export.sampling.sampler import ModelBundle
 from ardy_export.training.common import save_checkpoint
 
@@ -263,9 +263,12 @@ def recover_checkpoint(package: Path, base_checkpoint: Path, out: Path) -> dict[
         "steps": int(sampling.get("default_steps", 4)),
         "w_text": float(sampling.get("w_text", 2.0)),
         "w_con": float(sampling.get("w_con", 2.0)),
-        # The runtime's settings too, so that exporting the recovered checkpoint writes the
-        # package's model.json sampling block again (a package older than a setting has none).
-        **{name: sampling[name] for name in RUNTIME_SAMPLING_DEFAULTS if name in sampling},
+        # The runtime's settings too, so that exporting the recovered checkpoint samples as
+        # the package did: a setting the package lacks as the runtime reads its absence.
+        **{
+            name: sampling.get(name, RUNTIME_SAMPLING_ABSENT[name])
+            for name in RUNTIME_SAMPLING_DEFAULTS
+        },
     }
     recovered: dict[str, Any] = {
         key: value for key, value in base.items() if key not in ("model", "optimizer", "rng")

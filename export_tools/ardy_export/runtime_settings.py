@@ -22,6 +22,17 @@ MAX_OUTPUT_SMOOTHING_FRAMES = 10.0
 # error unchanged (the root is overwritten with the path either way).
 PATH_GUIDANCE_SCALE = 0.5
 
+# Multiplier of w_text in windows with a prompt and no goals (src/sampler.hpp
+# WindowInput::text_only_guidance_scale). With goals, a stronger text row pulls the body off
+# them (w_text 3 everywhere: model-only waypoints 0.324 -> 0.374 m, over their 0.35 m bar).
+# Alone, the stage 29 model at 1.25 and 1.5 was recognized better (R-precision 0.556 ->
+# 0.581 and 0.573), but the C++ continuity session then flicked a foot past its bound in a
+# standing gesture in 2 and 6 of 40 sampler seeds (0 at 1), so packages ship with 1
+# (docs/evaluation/tried, text-only guidance).
+TEXT_ONLY_GUIDANCE_SCALE = 1.0
+# The most the runtime takes (src/package.hpp kMaxTextOnlyGuidanceScale).
+MAX_TEXT_ONLY_GUIDANCE_SCALE = 4.0
+
 # The runtime's sampling settings that model.json carries beside steps and guidance weights,
 # with the values a package gets when neither the caller nor the checkpoint's
 # ``sampling_defaults`` (a training config's ``sampling``, or ``recover-checkpoint`` of a
@@ -30,6 +41,16 @@ RUNTIME_SAMPLING_DEFAULTS: dict[str, float | bool] = {
     "output_smoothing_frames": OUTPUT_SMOOTHING_FRAMES,
     "interpolate_root": True,
     "path_guidance_scale": PATH_GUIDANCE_SCALE,
+    "text_only_guidance_scale": TEXT_ONLY_GUIDANCE_SCALE,
+}
+
+# What the runtime uses where a package's model.json lacks the setting (a package older than
+# it): the filter off, no root interpolation, both guidance scales 1.
+RUNTIME_SAMPLING_ABSENT: dict[str, float | bool] = {
+    "output_smoothing_frames": 0.0,
+    "interpolate_root": False,
+    "path_guidance_scale": 1.0,
+    "text_only_guidance_scale": 1.0,
 }
 
 

@@ -191,11 +191,22 @@ bool MotionGenerator::apply_sampling(const char *what) {
 		planner_->set_sampling(steps_ > 0 ? static_cast<size_t>(steps_) : defaults.steps,
 				text_guidance_ >= 0.0 ? static_cast<float>(text_guidance_) : defaults.w_text,
 				constraint_guidance_ >= 0.0 ? static_cast<float>(constraint_guidance_) : defaults.w_con,
-				path_guidance_scale_ >= 0.0 ? static_cast<float>(path_guidance_scale_) : defaults.path_guidance_scale);
+				path_guidance_scale_ >= 0.0 ? static_cast<float>(path_guidance_scale_) : defaults.path_guidance_scale,
+				text_only_guidance_scale_ >= 0.0 ? static_cast<float>(text_only_guidance_scale_) : defaults.text_only_guidance_scale);
 	} catch (const std::exception &failure) {
 		return fail(std::string(what) + ": " + failure.what());
 	}
 	return true;
+}
+
+// Sets one sampling weight for the windows to come; the previous value stays if the planner
+// refuses it.
+void MotionGenerator::change_sampling(double &field, double value, const char *what) {
+	const double previous = field;
+	field = value;
+	if (!apply_sampling(what)) {
+		field = previous;
+	}
 }
 
 int64_t MotionGenerator::get_steps() const {
@@ -207,11 +218,7 @@ void MotionGenerator::set_text_guidance(double weight) {
 		fail("text_guidance: not a finite number");
 		return;
 	}
-	const double previous = text_guidance_;
-	text_guidance_ = weight;
-	if (!apply_sampling("text_guidance")) {
-		text_guidance_ = previous;
-	}
+	change_sampling(text_guidance_, weight, "text_guidance");
 }
 
 double MotionGenerator::get_text_guidance() const {
@@ -223,11 +230,7 @@ void MotionGenerator::set_constraint_guidance(double weight) {
 		fail("constraint_guidance: not a finite number");
 		return;
 	}
-	const double previous = constraint_guidance_;
-	constraint_guidance_ = weight;
-	if (!apply_sampling("constraint_guidance")) {
-		constraint_guidance_ = previous;
-	}
+	change_sampling(constraint_guidance_, weight, "constraint_guidance");
 }
 
 double MotionGenerator::get_constraint_guidance() const {
@@ -239,15 +242,23 @@ void MotionGenerator::set_path_guidance_scale(double scale) {
 		fail("path_guidance_scale: " + std::to_string(scale) + " is out of range (negative for the model's default, or above 0 up to 1)");
 		return;
 	}
-	const double previous = path_guidance_scale_;
-	path_guidance_scale_ = scale;
-	if (!apply_sampling("path_guidance_scale")) {
-		path_guidance_scale_ = previous;
-	}
+	change_sampling(path_guidance_scale_, scale, "path_guidance_scale");
 }
 
 double MotionGenerator::get_path_guidance_scale() const {
 	return path_guidance_scale_;
+}
+
+void MotionGenerator::set_text_only_guidance_scale(double scale) {
+	if (!(scale < 0.0 || ardy::text_only_guidance_scale_in_range(scale))) {
+		fail("text_only_guidance_scale: " + std::to_string(scale) + " is out of range (negative for the model's default, or above 0 up to 4)");
+		return;
+	}
+	change_sampling(text_only_guidance_scale_, scale, "text_only_guidance_scale");
+}
+
+double MotionGenerator::get_text_only_guidance_scale() const {
+	return text_only_guidance_scale_;
 }
 
 void MotionGenerator::set_seed(int64_t seed) {
@@ -1707,6 +1718,9 @@ PlannerConfig MotionGenerator::planner_config(const std::vector<float> &initial_
 	if (path_guidance_scale_ >= 0.0) {
 		config.path_guidance_scale = static_cast<float>(path_guidance_scale_);
 	}
+	if (text_only_guidance_scale_ >= 0.0) {
+		config.text_only_guidance_scale = static_cast<float>(text_only_guidance_scale_);
+	}
 	config.history_seconds = history_seconds_;
 	config.min_buffer_frames = static_cast<size_t>(replan_buffer_frames_);
 	config.foot_lock = foot_lock_;
@@ -2194,6 +2208,8 @@ void MotionGenerator::_bind_methods() {
 	ClassDB::bind_method(D_METHOD("get_constraint_guidance"), &MotionGenerator::get_constraint_guidance);
 	ClassDB::bind_method(D_METHOD("set_path_guidance_scale", "scale"), &MotionGenerator::set_path_guidance_scale);
 	ClassDB::bind_method(D_METHOD("get_path_guidance_scale"), &MotionGenerator::get_path_guidance_scale);
+	ClassDB::bind_method(D_METHOD("set_text_only_guidance_scale", "scale"), &MotionGenerator::set_text_only_guidance_scale);
+	ClassDB::bind_method(D_METHOD("get_text_only_guidance_scale"), &MotionGenerator::get_text_only_guidance_scale);
 	ClassDB::bind_method(D_METHOD("set_seed", "seed"), &MotionGenerator::set_seed);
 	ClassDB::bind_method(D_METHOD("get_seed"), &MotionGenerator::get_seed);
 	ClassDB::bind_method(D_METHOD("set_history_seconds", "seconds"), &MotionGenerator::set_history_seconds);
@@ -2273,6 +2289,8 @@ void MotionGenerator::_bind_methods() {
 			"get_constraint_guidance");
 	ADD_PROPERTY(PropertyInfo(Variant::FLOAT, "path_guidance_scale", PROPERTY_HINT_RANGE, "-1,1,0.05"), "set_path_guidance_scale",
 			"get_path_guidance_scale");
+	ADD_PROPERTY(PropertyInfo(Variant::FLOAT, "text_only_guidance_scale", PROPERTY_HINT_RANGE, "-1,4,0.05"), "set_text_only_guidance_scale",
+			"get_text_only_guidance_scale");
 	ADD_PROPERTY(PropertyInfo(Variant::INT, "seed"), "set_seed", "get_seed");
 	ADD_GROUP("Streaming", "");
 	ADD_PROPERTY(PropertyInfo(Variant::FLOAT, "history_seconds", PROPERTY_HINT_RANGE, "0,8,0.2,suffix:s"), "set_history_seconds", "get_history_seconds");

@@ -66,6 +66,8 @@ public:
 	double get_constraint_guidance() const;
 	void set_path_guidance_scale(double scale);
 	double get_path_guidance_scale() const;
+	void set_text_only_guidance_scale(double scale);
+	double get_text_only_guidance_scale() const;
 	void set_seed(int64_t seed);
 	int64_t get_seed() const;
 	void set_history_seconds(double seconds);
@@ -211,6 +213,7 @@ private:
 	void rig_pose_at(const Clip &clip, double seconds, godot::Skeleton3D *skeleton, Pose &pose, RigPose &rig_pose) const;
 	PlannerConfig planner_config(const std::vector<float> &initial_history) const;
 	bool apply_sampling(const char *what);  // false (reported) when the planner refuses them
+	void change_sampling(double &field, double value, const char *what);
 	void submit_world_goals();
 	void clear_goal_lists();
 	void submit(WorldWaypoint &waypoint);
@@ -245,6 +248,7 @@ private:
 	double text_guidance_ = -1.0;
 	double constraint_guidance_ = -1.0;
 	double path_guidance_scale_ = -1.0;
+	double text_only_guidance_scale_ = -1.0;
 	int64_t seed_ = 0;
 	double history_seconds_ = 4.0;
 	int64_t replan_buffer_frames_ = 4;

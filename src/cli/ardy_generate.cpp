@@ -6,7 +6,7 @@
 //                 [--out-json out.json] [--w-text W] [--w-con W]
 //                 [--history-seconds S] [--smoothing S]
 //                 [--interpolate-root on|off] [--max-root-speed V] [--foot-lock on|off]
-//                 [--path-guidance-scale S]
+//                 [--path-guidance-scale S] [--text-only-guidance-scale S]
 //
 // The timeline schema is timeline.hpp's (export_tools' timeline.py). The
 // motion is made by offline_motion.hpp: the frames a game's planner shows for
@@ -49,7 +49,7 @@ constexpr const char* kUsage =
     "                     [--out-bvh out.bvh] [--out-json out.json] [--threads N]\n"
     "                     [--w-text W] [--w-con W] [--history-seconds S]\n"
     "                     [--smoothing S] [--interpolate-root on|off] [--max-root-speed V]\n"
-    "                     [--foot-lock on|off] [--path-guidance-scale S]\n"
+    "                     [--foot-lock on|off] [--path-guidance-scale S] [--text-only-guidance-scale S]\n"
     "\n"
     "  --model DIR            model package folder (model.json, graphs, vocab.txt)\n"
     "  --timeline FILE        JSON timeline: {\"prompts\": [{\"time\", \"text\"}], \"constraints\": [...]}\n"
@@ -62,6 +62,8 @@ constexpr const char* kUsage =
     "  --w-text W, --w-con W  guidance weights (default: the package's)\n"
     "  --path-guidance-scale S  w_con times S where the constraints are a dense root path alone,\n"
     "                         0 < S <= 1 (default: the package's)\n"
+    "  --text-only-guidance-scale S  w_text times S where a window has a prompt and no constraints,\n"
+    "                         0 < S <= 4 (default: the package's)\n"
     "  --history-seconds S    history length (default and maximum: the model's)\n"
     "  --smoothing S          output filter sigma in frames, 0 = raw model output (default: the package's)\n"
     "  --interpolate-root on|off  turn sparse root targets (waypoints, keyframe roots) into a path from\n"
@@ -108,6 +110,7 @@ struct Arguments {
   std::optional<double> smoothing;
   std::optional<bool> interpolate_root;
   std::optional<float> path_guidance_scale;
+  std::optional<float> text_only_guidance_scale;
   std::optional<double> max_root_speed;
   bool foot_lock = true;
   bool joint_reach = true;
@@ -119,7 +122,7 @@ Arguments parse_arguments(int argc, char** argv) {
                                        "--steps",  "--out-bvh",  "--out-json",      "--threads",
                                        "--w-text", "--w-con",    "--history-seconds", "--joint-reach",
                                        "--smoothing", "--interpolate-root", "--max-root-speed",
-                                       "--foot-lock", "--path-guidance-scale"};
+                                       "--foot-lock", "--path-guidance-scale", "--text-only-guidance-scale"};
   for (int i = 1; i < argc; ++i) {
     std::string arg = argv[i];
     std::string value;
@@ -190,6 +193,13 @@ Arguments parse_arguments(int argc, char** argv) {
     const double scale = number("--path-guidance-scale", 0.0, 1.0);
     if (!ardy::path_guidance_scale_in_range(scale)) throw UsageError{"--path-guidance-scale must be above 0, got 0"};
     a.path_guidance_scale = static_cast<float>(scale);
+  }
+  if (values.count("--text-only-guidance-scale")) {
+    const double scale = number("--text-only-guidance-scale", 0.0, ardy::kMaxTextOnlyGuidanceScale);
+    if (!ardy::text_only_guidance_scale_in_range(scale)) {
+      throw UsageError{"--text-only-guidance-scale must be above 0, got 0"};
+    }
+    a.text_only_guidance_scale = static_cast<float>(scale);
   }
   return a;
 }
@@ -279,6 +289,7 @@ int run(const Arguments& args) {
   config.output_smoothing_frames = args.smoothing;
   config.interpolate_root = args.interpolate_root;
   config.path_guidance_scale = args.path_guidance_scale;
+  config.text_only_guidance_scale = args.text_only_guidance_scale;
   if (args.max_root_speed) config.max_root_speed = *args.max_root_speed;
   config.foot_lock = args.foot_lock;
   config.joint_reach = args.joint_reach;

@@ -182,6 +182,11 @@ static void test_planner(ardy_model* model) {
   CHECK_STATUS(ardy_planner_create(model, &params, &planner), ARDY_ERROR_INVALID_ARGUMENT);
   CHECK_CONTAINS(ardy_last_error(), "path_guidance_scale is 0, expected (0, 1] or NaN (the package default)");
   params = ardy_planner_default_params();
+  CHECK(isnan(params.text_only_guidance_scale));
+  params.text_only_guidance_scale = 5.0f;
+  CHECK_STATUS(ardy_planner_create(model, &params, &planner), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_last_error(), "text_only_guidance_scale is 5, expected (0, 4] or NaN (the package default)");
+  params = ardy_planner_default_params();
   params.interpolate_root = 2;
   CHECK_STATUS(ardy_planner_create(model, &params, &planner), ARDY_ERROR_INVALID_ARGUMENT);
   CHECK_CONTAINS(ardy_last_error(), "interpolate_root is 2");
@@ -330,11 +335,13 @@ static void test_planner(ardy_model* model) {
   CHECK_STATUS(ardy_planner_set_target_velocity(planner, 1.0, 0.5), ARDY_OK);
   CHECK_STATUS(ardy_planner_set_target_velocity(planner, INFINITY, 0.5), ARDY_ERROR_INVALID_ARGUMENT);
   CHECK_CONTAINS(ardy_planner_last_error(planner), "vx is inf");
-  CHECK_STATUS(ardy_planner_set_sampling(planner, 99, NAN, NAN, NAN), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_STATUS(ardy_planner_set_sampling(planner, 99, NAN, NAN, NAN, NAN), ARDY_ERROR_INVALID_ARGUMENT);
   CHECK_CONTAINS(ardy_planner_last_error(planner), "steps is 99");
-  CHECK_STATUS(ardy_planner_set_sampling(planner, 0, NAN, NAN, 1.5f), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_STATUS(ardy_planner_set_sampling(planner, 0, NAN, NAN, 1.5f, NAN), ARDY_ERROR_INVALID_ARGUMENT);
   CHECK_CONTAINS(ardy_planner_last_error(planner), "path_guidance_scale is 1.5, expected (0, 1]");
-  CHECK_STATUS(ardy_planner_set_sampling(planner, 2, 1.5f, NAN, 0.5f), ARDY_OK);
+  CHECK_STATUS(ardy_planner_set_sampling(planner, 0, NAN, NAN, NAN, -1.0f), ARDY_ERROR_INVALID_ARGUMENT);
+  CHECK_CONTAINS(ardy_planner_last_error(planner), "text_only_guidance_scale is -1, expected (0, 4]");
+  CHECK_STATUS(ardy_planner_set_sampling(planner, 2, 1.5f, NAN, 0.5f, 1.5f), ARDY_OK);
   CHECK_STATUS(ardy_planner_wait_idle(planner, 60.0), ARDY_OK);
 
   /* Numbers that parse but are no motion: refused with the bound, never used. */

@@ -7,6 +7,7 @@
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -289,6 +290,39 @@ TEST_CASE("ardy-generate limits the root's speed toward a far waypoint unless to
   CHECK_THAT(bad.err, ContainsSubstring("--max-root-speed"));
 }
 
+TEST_CASE("ardy-generate --text-only-guidance-scale scales w_text where only a prompt steers", "[cli]") {
+  const auto hips_path = [&](const std::string& timeline_text, const std::string& extra) {
+    const fs::path timeline = write_timeline("text_only.json", timeline_text);
+    const fs::path out = work_dir() / "text_only.json.out";
+    const RunResult r = run_cli("--model " + quote(model_dir()) + " --timeline " + quote(timeline.string()) +
+                                " --seconds 2 --seed 4 --threads 1 --out-json " + quote(out.string()) + extra);
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    const std::vector<unsigned char> bytes = ardy_test::read_bytes(out.string());
+    const nlohmann::json doc = nlohmann::json::parse(bytes.begin(), bytes.end());
+    std::vector<double> hips;
+    for (const auto& frame : doc.at("frames")) {
+      for (int axis = 0; axis < 3; ++axis) hips.push_back(frame.at("positions")[0][axis].get<double>());
+    }
+    return hips;
+  };
+  const auto largest_gap = [](const std::vector<double>& a, const std::vector<double>& b) {
+    REQUIRE(a.size() == b.size());
+    double gap = 0.0;
+    for (size_t i = 0; i < a.size(); ++i) gap = std::max(gap, std::fabs(a[i] - b[i]));
+    return gap;
+  };
+  // Text alone: w_text 2 at scale 1.5 is w_text 3.
+  const std::string text_only = R"({"prompts": [{"time": 0, "text": "walk"}]})";
+  const std::vector<double> scaled = hips_path(text_only, " --w-text 2 --text-only-guidance-scale 1.5");
+  CHECK(largest_gap(scaled, hips_path(text_only, " --w-text 3")) < 1e-5);
+  CHECK(largest_gap(scaled, hips_path(text_only, " --w-text 2")) > 1e-4);
+  // With a goal ahead of every window the scale changes nothing.
+  const std::string with_goal = R"({"prompts": [{"time": 0, "text": "walk"}],
+    "constraints": [{"type": "waypoint", "time": 1.9, "x": 1.0, "z": 0.5}]})";
+  CHECK(largest_gap(hips_path(with_goal, " --text-only-guidance-scale 1.5"), hips_path(with_goal, "")) < 1e-9);
+}
+
 TEST_CASE("ardy-generate refuses bad arguments with exit code 2 and a message", "[cli][errors]") {
   const fs::path timeline = write_timeline("ok.json", R"({"prompts": [{"time": 0, "text": "walk"}]})");
   const std::string base = "--model " + quote(model_dir()) + " --timeline " + quote(timeline.string());
@@ -319,6 +353,12 @@ TEST_CASE("ardy-generate refuses bad arguments with exit code 2 and a message", 
   r = run_cli(base + " --seconds 1 --path-guidance-scale 2");
   CHECK(r.code == 2);
   CHECK_THAT(r.err, ContainsSubstring("--path-guidance-scale is '2', expected a number in 0..1"));
+  r = run_cli(base + " --seconds 1 --text-only-guidance-scale 0");
+  CHECK(r.code == 2);
+  CHECK_THAT(r.err, ContainsSubstring("--text-only-guidance-scale must be above 0, got 0"));
+  r = run_cli(base + " --seconds 1 --text-only-guidance-scale 5");
+  CHECK(r.code == 2);
+  CHECK_THAT(r.err, ContainsSubstring("--text-only-guidance-scale is '5', expected a number in 0..4"));
   r = run_cli("--help");
   CHECK(r.code == 0);
   CHECK_THAT(r.out, ContainsSubstring("usage: ardy-generate"));

@@ -106,6 +106,7 @@ TEST_CASE("the tiny package loads from its folder with every value from model.js
   CHECK(package.sampling_defaults().w_con == 2.0f);
   CHECK(package.sampling_defaults().decode_context_tokens == 4);
   CHECK(package.sampling_defaults().path_guidance_scale == 1.0f);
+  CHECK(package.sampling_defaults().text_only_guidance_scale == 1.0f);
   CHECK(package.text_embedding_size() == 8);
   CHECK(package.text_encoder().embedding_size() == 8);
   CHECK(package.text_settings().tokenizer.max_tokens == 128);
@@ -271,6 +272,10 @@ TEST_CASE("model.json fields are validated with the field, the expected and the 
              ContainsSubstring("sampling.path_guidance_scale is 0.0, expected a number in (0, 1]"));
   CHECK_THAT(load_error([](json& d) { d["sampling"]["path_guidance_scale"] = 1.5; }),
              ContainsSubstring("sampling.path_guidance_scale is 1.5, expected a number in (0, 1]"));
+  CHECK_THAT(load_error([](json& d) { d["sampling"]["text_only_guidance_scale"] = 0; }),
+             ContainsSubstring("sampling.text_only_guidance_scale is 0.0, expected a number in (0, 4]"));
+  CHECK_THAT(load_error([](json& d) { d["sampling"]["text_only_guidance_scale"] = 4.5; }),
+             ContainsSubstring("sampling.text_only_guidance_scale is 4.5, expected a number in (0, 4]"));
   CHECK_THAT(load_error([](json& d) { d["text"]["special_tokens"]["unk"]["id"] = 7; }),
              ContainsSubstring("text.special_tokens.unk.id is 7, but") && ContainsSubstring("at id 100"));
   CHECK_THAT(

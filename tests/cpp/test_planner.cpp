@@ -1016,19 +1016,25 @@ TEST_CASE("malformed inputs give clear errors and leave the planner usable", "[p
              ContainsSubstring("path_guidance_scale is 0, expected (0, 1]"));
   CHECK_THAT(error_message([&] { planner.set_sampling(std::nullopt, std::nullopt, std::nullopt, 1.5f); }),
              ContainsSubstring("path_guidance_scale is 1.5"));
+  CHECK_THAT(error_message([&] { planner.set_sampling(std::nullopt, std::nullopt, std::nullopt, std::nullopt, 0.0f); }),
+             ContainsSubstring("text_only_guidance_scale is 0, expected (0, 4]"));
+  CHECK_THAT(error_message([&] { planner.set_sampling(std::nullopt, std::nullopt, std::nullopt, std::nullopt, 4.5f); }),
+             ContainsSubstring("text_only_guidance_scale is 4.5"));
 
   // Nothing reached the worker; the planner still works.
   REQUIRE(planner.wait_idle());
   CHECK(planner.stats().commands == 0);
   planner.set_prompt("a person walks");
   CHECK(model.inputs().back().path_guidance_scale == 1.0f);  // the tiny package's
-  planner.set_sampling(2, 1.5f, 1.0f, 0.25f);
+  CHECK(model.inputs().back().text_only_guidance_scale == 1.0f);
+  planner.set_sampling(2, 1.5f, 1.0f, 0.25f, 1.5f);
   planner.set_prompt("a person runs");
   REQUIRE(planner.wait_idle());
   CHECK(published(planner).back().prompt == std::string("a person runs"));
   CHECK(model.inputs().back().steps == 2);
   CHECK(model.inputs().back().w_con == 1.0f);
   CHECK(model.inputs().back().path_guidance_scale == 0.25f);
+  CHECK(model.inputs().back().text_only_guidance_scale == 1.5f);
   CHECK(planner.take_errors().empty());
 
   PlannerConfig bad = model.config();

@@ -376,6 +376,32 @@ TEST_CASE("path_guidance_scale scales w_con in windows whose goals are a dense r
   CHECK_THAT(error_message([&] { run(other, 2.0f, 1.5f); }), ContainsSubstring("path_guidance_scale is 1.500000"));
 }
 
+TEST_CASE("text_only_guidance_scale scales w_text in windows with a prompt and no goals", "[sampler]") {
+  const auto package = tiny_package();
+  Rollout text_rollout(package, golden_settings());
+  for (const ardy::PromptEvent& e : golden_timeline().prompts) text_rollout.add_prompt(e.frame, e.text);
+  const WindowInput text_window = text_rollout.prepare_window();
+  REQUIRE(text_window.text_embedding.has_value());
+  REQUIRE_FALSE(text_window.goals.has_constraints());
+  const std::vector<float> noise = golden_noise(0);
+  const auto run = [&](const WindowInput& base, float w_text, float scale) {
+    WindowInput in = base;
+    in.w_text = w_text;
+    in.text_only_guidance_scale = scale;
+    return ardy::generate_window(*package, in, noise).features;
+  };
+  // Text alone: w_text 2 at scale 1.5 is w_text 3 at scale 1, and differs from w_text 2.
+  CHECK(max_abs_diff(run(text_window, 2.0f, 1.5f), run(text_window, 3.0f, 1.0f)) < 1e-6);
+  CHECK(max_abs_diff(run(text_window, 2.0f, 1.5f), run(text_window, 2.0f, 1.0f)) > 1e-3);
+  // A window with goals keeps w_text.
+  Rollout goal_rollout = golden_rollout();
+  const WindowInput goal_window = goal_rollout.prepare_window();
+  REQUIRE(goal_window.goals.has_constraints());
+  CHECK(max_abs_diff(run(goal_window, 2.0f, 1.5f), run(goal_window, 2.0f, 1.0f)) < 1e-6);
+  CHECK_THAT(error_message([&] { run(text_window, 2.0f, 0.0f); }),
+             ContainsSubstring("text_only_guidance_scale is 0.000000, expected (0, 4]"));
+}
+
 TEST_CASE("root_continuity moves the free root positions with the overwrite, so the root has no step",
           "[sampler]") {
   const auto package = tiny_package();
@@ -493,6 +519,10 @@ TEST_CASE("every step count from 1 to N runs; settings are validated", "[rollout
   bad.path_guidance_scale = 0.0f;
   CHECK_THAT(error_message([&] { Rollout r(tiny_package(), bad); }),
              ContainsSubstring("path_guidance_scale is 0.000000, expected (0, 1]"));
+  bad = {};
+  bad.text_only_guidance_scale = 4.5f;
+  CHECK_THAT(error_message([&] { Rollout r(tiny_package(), bad); }),
+             ContainsSubstring("text_only_guidance_scale is 4.500000, expected (0, 4]"));
   // Limits beyond the model's are clamped.
   RolloutSettings big;
   big.history_tokens = 1000;

@@ -198,7 +198,8 @@ void planner_call(Script& s, ardy_planner* p, uint8_t op, std::vector<uint64_t>&
     case 12: {
       const int32_t steps = s.int32();
       const float w_text = s.number_f(), w_con = s.number_f(), path_guidance_scale = s.number_f();
-      status = ardy_planner_set_sampling(p, steps, w_text, w_con, path_guidance_scale);
+      const float text_only_guidance_scale = s.number_f();
+      status = ardy_planner_set_sampling(p, steps, w_text, w_con, path_guidance_scale, text_only_guidance_scale);
       break;
     }
     case 13: status = ardy_planner_advance(p, s.number()); break;

@@ -150,6 +150,8 @@ def test_runtime_settings_come_from_the_call_then_the_checkpoint_then_the_defaul
     assert sampling["output_smoothing_frames"] == 0.75
     assert sampling["path_guidance_scale"] == 1.0
     assert sampling["interpolate_root"] is RUNTIME_SAMPLING_DEFAULTS["interpolate_root"]
+    default_text_scale = RUNTIME_SAMPLING_DEFAULTS["text_only_guidance_scale"]
+    assert sampling["text_only_guidance_scale"] == default_text_scale
     assert json.loads((tmp_path / "model.json").read_text())["sampling"] == sampling
 
 
@@ -158,6 +160,11 @@ def test_runtime_settings_come_from_the_call_then_the_checkpoint_then_the_defaul
     [
         ("path_guidance_scale", 0.0, "path_guidance_scale is 0.0, expected 0 < scale <= 1"),
         ("output_smoothing_frames", -1.0, "output_smoothing_frames is -1.0, expected 0 to 10"),
+        (
+            "text_only_guidance_scale",
+            4.5,
+            "text_only_guidance_scale is 4.5, expected 0 < scale <= 4",
+        ),
     ],
 )
 def test_a_runtime_setting_the_runtime_would_refuse_is_refused_before_writing(

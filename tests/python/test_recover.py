@@ -14,7 +14,7 @@ import torch
 from ardy_export.models.denoiser import Denoiser, DenoiserConfig
 from ardy_export.package import export_graphs
 from ardy_export.recover import RecoverError, probed_goal_weights, recover_checkpoint
-from ardy_export.runtime_settings import RUNTIME_SAMPLING_DEFAULTS
+from ardy_export.runtime_settings import RUNTIME_SAMPLING_ABSENT, RUNTIME_SAMPLING_DEFAULTS
 from ardy_export.sampling.sampler import ModelBundle
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -51,6 +51,26 @@ def test_the_shipped_package_gives_back_weights_that_reproduce_its_graphs(tmp_pa
         expected = stage.window_proj.weight.detach().numpy()[:, d:]
         assert probed.shape == expected.shape
         assert np.abs(probed - expected).max() <= 1e-6
+
+
+def test_a_package_older_than_a_setting_recovers_it_as_the_runtime_reads_its_absence(
+    tmp_path: Path,
+) -> None:
+    """A package from before a runtime setting existed sampled as the runtime reads the
+    setting's absence; its recovered checkpoint keeps that, not today's export default."""
+    old = tmp_path / "old"
+    shutil.copytree(PACKAGE, old)
+    description = json.loads((old / "model.json").read_text())
+    for name in ("path_guidance_scale", "text_only_guidance_scale"):
+        del description["sampling"][name]
+    (old / "model.json").write_text(json.dumps(description, indent=1) + "\n")
+    out = tmp_path / "recovered.pt"
+    recover_checkpoint(old, BASE, out)
+    defaults = ModelBundle.from_checkpoint(out).defaults
+    for name in ("path_guidance_scale", "text_only_guidance_scale"):
+        assert defaults[name] == RUNTIME_SAMPLING_ABSENT[name] == 1
+    assert RUNTIME_SAMPLING_DEFAULTS["path_guidance_scale"] != 1  # not today's export default
+    assert defaults["output_smoothing_frames"] == description["sampling"]["output_smoothing_frames"]
 
 
 def test_a_base_of_another_architecture_is_refused(tmp_path: Path) -> None:

@@ -241,3 +241,27 @@ def test_path_guidance_scale_scales_w_con_on_dense_path_windows_only() -> None:
     assert not np.allclose(sample(path, 2.0, 0.5), sample(path, 2.0, 1.0), atol=1e-3)
     keyframe = _path_goals(c, cfg.patch, c * cfg.patch, extra_feature=L.HEADING_SLICE.stop)
     assert np.allclose(sample(keyframe, 2.0, 0.5), sample(keyframe, 2.0, 1.0), atol=1e-6)
+
+
+def test_text_only_guidance_scale_scales_w_text_on_windows_without_goals_only() -> None:
+    """Without goals, w_text 2 at scale 1.5 samples as w_text 3; with goals the scale
+    changes nothing (the C++ sampler's rule, tests/cpp/test_sampler.cpp)."""
+    bundle = random_bundle(seed=3)
+    cfg = bundle.config
+    c, d = cfg.window_tokens, cfg.token_dim
+    rng = np.random.default_rng(6)
+    text = rng.standard_normal(384).astype(np.float32)
+    noise = rng.standard_normal((c, d)).astype(np.float32)
+
+    def sample(goals: WindowGoals, w_text: float, scale: float) -> np.ndarray:
+        request = WindowRequest(np.zeros((0, d), np.float32), text, goals, noise)
+        (x0,) = sample_windows(
+            bundle.denoiser, bundle.schedule, [request], 4, w_text, 2.0, True, 1.0, scale
+        )
+        return x0
+
+    free = _empty_goals(c, cfg.goal_dim)
+    assert np.allclose(sample(free, 2.0, 1.5), sample(free, 3.0, 1.0), atol=1e-6)
+    assert not np.allclose(sample(free, 2.0, 1.5), sample(free, 2.0, 1.0), atol=1e-3)
+    path = _path_goals(c, cfg.patch, c * cfg.patch)
+    assert np.allclose(sample(path, 2.0, 1.5), sample(path, 2.0, 1.0), atol=1e-6)

@@ -1,4 +1,4 @@
-// NativeMethods.cs: the C ABI of src/ardy_c.h (ARDY_ABI_VERSION 3), 1:1.
+// NativeMethods.cs: the C ABI of src/ardy_c.h (ARDY_ABI_VERSION 4), 1:1.
 //
 // Every function, struct and enum of the header, in the header's order, with
 // the C names. Rules (see bindings/csharp/README.md):
@@ -64,6 +64,7 @@ namespace Ardy
         public float w_text;
         public float w_con;
         public float path_guidance_scale;
+        public float text_only_guidance_scale;
         public double history_seconds;
         public double future_seconds;
         public double start_x;
@@ -141,7 +142,7 @@ namespace Ardy
     {
         internal const string Library = "ardy_c";
         /// <summary>The ARDY_ABI_VERSION these declarations were written for.</summary>
-        internal const int AbiVersion = 3;
+        internal const int AbiVersion = 4;
 
         // --- library ---------------------------------------------------------
         [DllImport(Library)] internal static extern IntPtr ardy_version();
@@ -238,7 +239,7 @@ namespace Ardy
         [DllImport(Library)] internal static extern Status ardy_planner_clear_target_velocity(PlannerHandle planner);
         [DllImport(Library)]
         internal static extern Status ardy_planner_set_sampling(PlannerHandle planner, int steps, float w_text, float w_con,
-                                                                float path_guidance_scale);
+                                                                float path_guidance_scale, float text_only_guidance_scale);
 
         // --- playback ------------------------------------------------------------
         [DllImport(Library)] internal static extern Status ardy_planner_advance(PlannerHandle planner, double delta);

@@ -49,6 +49,9 @@ namespace Ardy
         /// <summary>WCon times this where the goals are a dense root path alone (keyboard steering,
         /// clicked paths), in (0, 1]; NaN: the package default.</summary>
         public float PathGuidanceScale;
+        /// <summary>WText times this where a window has a prompt and no goals, in (0, 4];
+        /// NaN: the package default.</summary>
+        public float TextOnlyGuidanceScale;
         /// <summary>History window (default 8; clamped to the package's maximum).</summary>
         public double HistorySeconds;
         /// <summary>Out-of-window goal horizon; &lt; 0: the package's maximum.</summary>
@@ -96,6 +99,7 @@ namespace Ardy
                 WText = p.w_text,
                 WCon = p.w_con,
                 PathGuidanceScale = p.path_guidance_scale,
+                TextOnlyGuidanceScale = p.text_only_guidance_scale,
                 HistorySeconds = p.history_seconds,
                 FutureSeconds = p.future_seconds,
                 StartX = p.start_x,
@@ -125,6 +129,7 @@ namespace Ardy
                 w_text = WText,
                 w_con = WCon,
                 path_guidance_scale = PathGuidanceScale,
+                text_only_guidance_scale = TextOnlyGuidanceScale,
                 history_seconds = HistorySeconds,
                 future_seconds = FutureSeconds,
                 start_x = StartX,

@@ -216,11 +216,13 @@ namespace Ardy
         public void ClearTargetVelocity() { Check(NativeMethods.ardy_planner_clear_target_velocity(_handle)); }
 
         /// <summary>Sampling of the windows to come: steps 0, a NaN value: unchanged
-        /// (pathGuidanceScale: PlannerParams.PathGuidanceScale).</summary>
+        /// (pathGuidanceScale: PlannerParams.PathGuidanceScale, textOnlyGuidanceScale:
+        /// PlannerParams.TextOnlyGuidanceScale).</summary>
         public void SetSampling(int steps, float wText = float.NaN, float wCon = float.NaN,
-                                float pathGuidanceScale = float.NaN)
+                                float pathGuidanceScale = float.NaN, float textOnlyGuidanceScale = float.NaN)
         {
-            Check(NativeMethods.ardy_planner_set_sampling(_handle, steps, wText, wCon, pathGuidanceScale));
+            Check(NativeMethods.ardy_planner_set_sampling(_handle, steps, wText, wCon, pathGuidanceScale,
+                                                                 textOnlyGuidanceScale));
         }
 
         // --- playback (never waits on inference, never allocates) ----------------------

@@ -209,6 +209,7 @@ static class Tests
               "defaults: model params (cache 256, prompt 2000 chars, fast_threads off)");
         PlannerParams pp = PlannerParams.Default();
         Check(pp.HistorySeconds == 8.0 && float.IsNaN(pp.WText) && float.IsNaN(pp.WCon) && float.IsNaN(pp.PathGuidanceScale) &&
+              float.IsNaN(pp.TextOnlyGuidanceScale) &&
               pp.MaxRootSpeed == 6.0 &&
               pp.FootLock && pp.CancelObsoleteWindows && pp.InterpolateRoot == -1 && pp.OutputSmoothingFrames < 0.0 &&
               pp.LatencyMargin == 1.25 && pp.LowWaterSeconds == 1.0 && pp.KeepBehindSeconds == 1.0 &&
@@ -403,6 +404,8 @@ static class Tests
             });
             Throws("bad path guidance scale", Status.InvalidArgument, "path_guidance_scale is 2, expected (0, 1]",
                    () => planner.SetSampling(0, float.NaN, float.NaN, 2.0f));
+            Throws("bad text-only guidance scale", Status.InvalidArgument, "text_only_guidance_scale is 0, expected (0, 4]",
+                   () => planner.SetSampling(0, float.NaN, float.NaN, float.NaN, 0.0f));
             // Still usable; the commands that were valid work, including UTF-8 prompts.
             planner.SetPrompt("a person walks forward \u2014 slowly, caf\u00e9");
             planner.AddJointTarget(1.5, "Hand_R", new[] { 0.3, 1.4, 0.2 }, null);
@@ -411,7 +414,7 @@ static class Tests
             planner.RemoveConstraint(id);
             planner.SetTargetVelocity(1.0, 0.5);
             planner.ClearTargetVelocity();
-            planner.SetSampling(0, float.NaN, float.NaN, 0.5f);
+            planner.SetSampling(0, float.NaN, float.NaN, 0.5f, 1.5f);
             planner.Advance(0.5);
             planner.Sample(0.25, out info, rotations, positions);
             Check(Math.Abs(info.time - 0.25) < 1e-9 && planner.Time == 0.5, "bad inputs: the planner is usable after the errors");

@@ -24,6 +24,7 @@ int main(void) {
   FIELD(ardy_planner_params, w_text);
   FIELD(ardy_planner_params, w_con);
   FIELD(ardy_planner_params, path_guidance_scale);
+  FIELD(ardy_planner_params, text_only_guidance_scale);
   FIELD(ardy_planner_params, history_seconds);
   FIELD(ardy_planner_params, future_seconds);
   FIELD(ardy_planner_params, start_x);

@@ -180,18 +180,20 @@ def sample_windows(
     w_con: float = 2.0,
     root_overwrite: bool = True,
     path_guidance_scale: float = 1.0,
+    text_only_guidance_scale: float = 1.0,
 ) -> list[np.ndarray]:
     """DDIM for a batch of windows; returns the clean tokens [C, D] of each (normalized).
 
     ``root_overwrite=False`` skips the overwrite of the guided x0 (for tests that measure
     what the network itself learned; the runtime always overwrites).
     ``path_guidance_scale`` multiplies ``w_con`` in windows whose goals are a dense root path
-    alone (``WindowGoals.root_path_only``).
+    alone (``WindowGoals.root_path_only``); ``text_only_guidance_scale`` multiplies ``w_text``
+    in windows with no goals.
     """
     cfg = denoiser.config
     branches = [
         guidance_branches(
-            w_text,
+            w_text if r.goals.has_constraints else w_text * text_only_guidance_scale,
             w_con * path_guidance_scale if r.goals.root_path_only else w_con,
             r.text_embedding is not None,
             r.goals.has_constraints,
@@ -298,6 +300,7 @@ class RolloutConfig:
     root_overwrite: bool = True
     interpolate_root: bool = False  # constraints.interpolate_root on every window's goals
     path_guidance_scale: float = 1.0  # sample_windows: w_con times this on dense-path windows
+    text_only_guidance_scale: float = 1.0  # sample_windows: w_text times this without goals
 
 
 @dataclass
@@ -400,6 +403,7 @@ def rollout(
             cfg.w_con,
             cfg.root_overwrite,
             cfg.path_guidance_scale,
+            cfg.text_only_guidance_scale,
         )
         k = min(h, cfg.decode_context_tokens)
         context = hist[h - k :]

@@ -546,12 +546,14 @@ func test_sampling_settings_change_live_and_a_refused_one_is_kept_out() -> void:
 	generator.steps = 2
 	generator.text_guidance = 3.0
 	generator.path_guidance_scale = 0.25
+	generator.text_only_guidance_scale = 2.0
 	generator.steps = 0  # back to the model's default
 	check_eq(generator.get_last_error(), "", "live sampling changes are accepted")
 	expect_error("steps: ")
 	generator.steps = 900  # more steps than the model's schedule has
 	check_eq(generator.steps, 0, "a refused step count leaves the previous one")
 	check_eq(generator.path_guidance_scale, 0.25, "path_guidance_scale kept")
+	check_eq(generator.text_only_guidance_scale, 2.0, "text_only_guidance_scale kept")
 	var windows: int = generator.get_stats()["windows"]
 	var deadline := Time.get_ticks_msec() + 30000
 	while generator.get_stats()["windows"] < windows + 2 and Time.get_ticks_msec() < deadline:

@@ -135,7 +135,7 @@ func test_bad_inputs_are_reported_once_and_change_nothing() -> void:
 	var generator := MotionGenerator.new()
 	var messages: Array[String] = []
 	generator.generation_failed.connect(func(message: String) -> void: messages.append(message))
-	expect_error("MotionGenerator: ", 14)
+	expect_error("MotionGenerator: ", 16)
 	generator.prompt = "walk"
 	generator.prompt = "x".repeat(5000)
 	check_eq(generator.prompt, "walk", "an over-long prompt leaves the prompt")
@@ -152,7 +152,9 @@ func test_bad_inputs_are_reported_once_and_change_nothing() -> void:
 	generator.target_velocity = Vector3(NAN, 0, 0)
 	generator.path_guidance_scale = 1.5
 	generator.path_guidance_scale = 0.0
-	check_eq(messages.size(), 14, "one message per bad input: " + "\n".join(messages))
+	generator.text_only_guidance_scale = 4.5
+	generator.text_only_guidance_scale = 0.0
+	check_eq(messages.size(), 16, "one message per bad input: " + "\n".join(messages))
 	var expected := [
 		"prompt",
 		"position",
@@ -168,6 +170,8 @@ func test_bad_inputs_are_reported_once_and_change_nothing() -> void:
 		"target_velocity",
 		"path_guidance_scale: 1.5",
 		"path_guidance_scale: 0.0",
+		"text_only_guidance_scale: 4.5",
+		"text_only_guidance_scale: 0.0",
 	]
 	for i in mini(messages.size(), expected.size()):
 		check(
@@ -178,6 +182,7 @@ func test_bad_inputs_are_reported_once_and_change_nothing() -> void:
 	check_eq(generator.history_seconds, 4.0, "history_seconds unchanged")
 	check_eq(generator.target_velocity, Vector3.ZERO, "target_velocity unchanged")
 	check_eq(generator.path_guidance_scale, -1.0, "path_guidance_scale unchanged")
+	check_eq(generator.text_only_guidance_scale, -1.0, "text_only_guidance_scale unchanged")
 	generator.free()
 
 
