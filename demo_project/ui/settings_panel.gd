@@ -13,8 +13,9 @@ signal restarted
 const WIDTH := 440.0
 const MAX_STEPS := 50
 const MAX_GUIDANCE := 10.0
-# Where a control rests while the model's own value is used: the shipped
-# model's defaults, so moving it starts from a familiar value.
+# Where a control rests while the model's own value is used, until the model
+# has loaded (then its own values, get_model_sampling()): the shipped model's
+# defaults, so moving it starts from a familiar value.
 const MODEL_STEPS := 4
 const MODEL_GUIDANCE := 2.0
 const MODEL_PATH_GUIDANCE := 0.5
@@ -101,7 +102,7 @@ func _ready() -> void:
 
 
 # The node has no signal for its settings: compare what it holds each frame
-# (nine property reads) and redraw only on a change.
+# (nine property reads and the model's own sampling) and redraw only on a change.
 func _process(_delta: float) -> void:
 	if generator != null and _values() != _shown_values:
 		_refresh()
@@ -168,7 +169,8 @@ func _add_sampling_rows() -> void:
 
 
 # A slider, its value and a "default" box for a weight the node reads as the model's own
-# when negative; the slider rests at `model_value` meanwhile.
+# when negative; meanwhile the slider rests at the model's own value (`model_value` until
+# the model has loaded).
 func _add_weight_row(
 	title: String,
 	property: StringName,
@@ -294,11 +296,14 @@ func _refresh() -> void:
 	_shown_values = _values()
 	var steps := generator.steps
 	_steps_default.set_pressed_no_signal(steps <= 0)
-	_steps.set_value_no_signal(steps if steps > 0 else MODEL_STEPS)
+	var model_sampling := generator.get_model_sampling()
+	_steps.set_value_no_signal(steps if steps > 0 else model_sampling.get("steps", MODEL_STEPS))
 	_steps_value.text = "" if steps > 0 else "auto"
 	_steps_value.add_theme_color_override("font_color", UiStyle.DIM_TEXT)
 	for property: StringName in _weights:
-		_show_weight(generator.get(property), _weights[property])
+		var row: Dictionary = _weights[property]
+		var model_value: float = model_sampling.get(property, row["model_value"])
+		_show_weight(generator.get(property), row, model_value)
 	_history.set_value_no_signal(generator.history_seconds)
 	_history_value.text = "%.1f s" % generator.history_seconds
 	_replan.set_value_no_signal(generator.replan_buffer_frames)
@@ -308,15 +313,18 @@ func _refresh() -> void:
 
 
 func _values() -> Array:
-	return SHOWN.map(func(property: StringName) -> Variant: return generator.get(property))
+	var values := SHOWN.map(func(property: StringName) -> Variant: return generator.get(property))
+	values.append(generator.get_model_sampling())
+	return values
 
 
-func _show_weight(weight: float, row: Dictionary) -> void:
+# `model_value`: where the slider rests while the model's own value is used.
+func _show_weight(weight: float, row: Dictionary, model_value: float) -> void:
 	var use_default: CheckBox = row["use_default"]
 	var slider: HSlider = row["slider"]
 	var value: Label = row["value"]
 	use_default.set_pressed_no_signal(weight < 0.0)
-	slider.set_value_no_signal(weight if weight >= 0.0 else row["model_value"])
+	slider.set_value_no_signal(weight if weight >= 0.0 else model_value)
 	value.text = row["format"] % weight if weight >= 0.0 else "auto"
 	value.add_theme_color_override(
 		"font_color", UiStyle.TEXT if weight >= 0.0 else UiStyle.DIM_TEXT

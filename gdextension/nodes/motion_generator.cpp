@@ -1622,6 +1622,21 @@ PackedStringArray MotionGenerator::get_joint_names() const {
 	return names;
 }
 
+// What the sampling properties' "model's default" values (0 steps, a negative weight or
+// scale) stand for, so that a settings UI can show them.
+Dictionary MotionGenerator::get_model_sampling() const {
+	Dictionary sampling;
+	if (package_) {
+		const SamplingDefaults &defaults = package_->sampling_defaults();
+		sampling.set("steps", static_cast<int64_t>(defaults.steps));
+		sampling.set("text_guidance", defaults.w_text);
+		sampling.set("constraint_guidance", defaults.w_con);
+		sampling.set("path_guidance_scale", defaults.path_guidance_scale);
+		sampling.set("text_only_guidance_scale", defaults.text_only_guidance_scale);
+	}
+	return sampling;
+}
+
 bool MotionGenerator::is_model_loaded() const {
 	return package_ != nullptr;
 }
@@ -2247,6 +2262,7 @@ void MotionGenerator::_bind_methods() {
 	ClassDB::bind_method(D_METHOD("get_stats"), &MotionGenerator::get_stats);
 	ClassDB::bind_method(D_METHOD("get_planned_root", "at_seconds"), &MotionGenerator::get_planned_root);
 	ClassDB::bind_method(D_METHOD("get_joint_names"), &MotionGenerator::get_joint_names);
+	ClassDB::bind_method(D_METHOD("get_model_sampling"), &MotionGenerator::get_model_sampling);
 	ClassDB::bind_method(D_METHOD("is_model_loaded"), &MotionGenerator::is_model_loaded);
 	ClassDB::bind_method(D_METHOD("is_generating"), &MotionGenerator::is_generating);
 	ClassDB::bind_method(D_METHOD("get_last_error"), &MotionGenerator::get_last_error);

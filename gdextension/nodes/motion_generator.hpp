@@ -108,6 +108,7 @@ public:
 	godot::Variant get_planned_root(double at_seconds) const;
 	godot::Dictionary get_stats() const;
 	godot::PackedStringArray get_joint_names() const;
+	godot::Dictionary get_model_sampling() const;
 	bool is_model_loaded() const;
 	bool is_generating() const;
 	godot::String get_last_error() const;

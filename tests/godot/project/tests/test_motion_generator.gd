@@ -36,10 +36,16 @@ func test_instanced_from_scene_and_ready_loads_model() -> void:
 	expect_error("the model's root joint 'Hips' has no bone in the rig")
 	tree.root.add_child(character)
 	check(not generator.is_model_loaded(), "loading happens in the background, not in _ready")
+	check(generator.get_model_sampling().is_empty(), "no model sampling before the model loads")
 	# _ready (a virtual override) starts loading model_path because playing is on.
 	check(await _wait_for(func() -> bool: return loaded[0]), "model_loaded was emitted")
 	check(generator.is_model_loaded(), "the model loaded: " + generator.get_last_error())
 	check_eq(generator.get_joint_names().size(), 21, "the package's skeleton")
+	var sampling: Dictionary = generator.get_model_sampling()
+	check_eq(sampling.get("steps"), 4, "the package's steps")
+	check_eq(sampling.get("text_guidance"), 2.0, "the package's w_text")
+	check_eq(sampling.get("path_guidance_scale"), 1.0, "the package's path guidance scale")
+	check_eq(sampling.size(), 5, "every sampling setting: %s" % sampling)
 	character.free()
 
 
