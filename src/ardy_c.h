@@ -156,7 +156,8 @@ typedef struct ardy_planner_params {
   float w_con;                    /* constraint guidance; NaN: the package default */
   float path_guidance_scale;      /* w_con times this where the goals are a dense root path alone (keyboard
                                    * steering, clicked paths), in (0, 1]; NaN: the package default */
-  float text_only_guidance_scale; /* w_text times this where a window has a prompt and no goals, in (0, 4];
+  float text_only_guidance_scale; /* w_text times this where a window has a prompt and no goals, at the
+                                   * steps in the upper half of the diffusion schedule, in (0, 4];
                                    * NaN: the package default */
   double history_seconds;         /* history window (default 8; clamped to the package's maximum) */
   double future_seconds;          /* out-of-window goal horizon; < 0: the package's maximum */

@@ -125,15 +125,21 @@ std::pair<float, float> ddim_coefficients(const DiffusionSchedule& schedule, int
 
 // --- guidance ------------------------------------------------------------------------
 
-std::vector<GuidanceRow> guidance_rows(float w_text, float w_con, bool has_text, bool has_constraints) {
+std::vector<GuidanceRow> guidance_rows(float w_text, float late_w_text, float w_con, bool has_text,
+                                       bool has_constraints) {
   const float wt = has_text ? w_text : 0.0f;
+  const float late_wt = has_text ? late_w_text : 0.0f;
   const float wc = has_constraints ? w_con : 0.0f;
   // 1 - w_t - w_c as Python computes it (float64), then float32.
-  const auto uncond = static_cast<float>(1.0 - static_cast<double>(wt) - static_cast<double>(wc));
-  const GuidanceRow all[3] = {{"uncond", 0.0f, 0.0f, uncond}, {"text", 1.0f, 0.0f, wt}, {"constraint", 0.0f, 1.0f, wc}};
+  const auto uncond_weight = [wc](float text_weight) {
+    return static_cast<float>(1.0 - static_cast<double>(text_weight) - static_cast<double>(wc));
+  };
+  const GuidanceRow all[3] = {{"uncond", 0.0f, 0.0f, uncond_weight(wt), uncond_weight(late_wt)},
+                              {"text", 1.0f, 0.0f, wt, late_wt},
+                              {"constraint", 0.0f, 1.0f, wc, wc}};
   std::vector<GuidanceRow> out;
   for (const GuidanceRow& row : all) {
-    if (row.weight != 0.0f) out.push_back(row);
+    if (row.weight != 0.0f || row.late_weight != 0.0f) out.push_back(row);
   }
   return out;
 }
@@ -472,7 +478,7 @@ std::vector<std::vector<float>> sample_windows(const ModelPackage& package,
     const bool has_goals = w->goals.has_constraints();
     const float w_con = w->goals.root_path_only ? w->w_con * w->path_guidance_scale : w->w_con;
     const float w_text = has_goals ? w->w_text : w->w_text * w->text_only_guidance_scale;
-    rows_of.push_back(guidance_rows(w_text, w_con, w->text_embedding.has_value(), has_goals));
+    rows_of.push_back(guidance_rows(w_text, w->w_text, w_con, w->text_embedding.has_value(), has_goals));
     if (rows_of.back().empty()) {
       // A guard: the weights sum to 1, so at least one row remains.
       throw Error("sample_windows: the guidance weights leave no denoiser row (w_text " + std::to_string(w->w_text) +
@@ -534,17 +540,21 @@ std::vector<std::vector<float>> sample_windows(const ModelPackage& package,
         row_x0[w][k] = group.output.data.data() + r * cd;
       }
     }
+    const bool late = is_late_step(timesteps[i], package.schedule().num_steps());
     for (size_t w = 0; w < windows.size(); ++w) {
       const WindowInput& in = *windows[w];
       std::vector<float>& result = x0[w];
       const std::vector<GuidanceRow>& brs = rows_of[w];
+      const auto weight = [&](size_t b) { return late ? brs[b].late_weight : brs[b].weight; };
       // x0 = c_first * row_first + c_next * row_next + ... (float32, in order).
       const float* first = row_x0[w][0];
-      for (size_t j = 0; j < cd; ++j) result[j] = brs[0].weight * first[j];
+      const float first_weight = weight(0);
+      for (size_t j = 0; j < cd; ++j) result[j] = first_weight * first[j];
       for (size_t b = 1; b < brs.size(); ++b) {
         const float* row = row_x0[w][b];
+        const float row_weight = weight(b);
         for (size_t j = 0; j < cd; ++j) {
-          const float term = brs[b].weight * row[j];
+          const float term = row_weight * row[j];
           result[j] = result[j] + term;
         }
       }

@@ -52,13 +52,28 @@ struct GuidanceRow {
   const char* name = "";  // "uncond", "text", "constraint"
   float text_keep = 0.0f;
   float constraint_keep = 0.0f;
-  float weight = 0.0f;
+  float weight = 0.0f;       // at the steps in the upper half of the schedule
+  float late_weight = 0.0f;  // at the others (is_late_step)
 };
 
-// Rows D0, D_text, D_con in this order, each only if its weight is not
-// exactly 0: w_t = w_text if has_text else 0, w_c = w_con if has_constraints
-// else 0, D0 weight 1 - w_t - w_c.
-std::vector<GuidanceRow> guidance_rows(float w_text, float w_con, bool has_text, bool has_constraints);
+// Rows D0, D_text, D_con in this order, each only if its weight or late
+// weight is not exactly 0: w_t = w_text if has_text else 0, w_c = w_con if
+// has_constraints else 0, D0 weight 1 - w_t - w_c; the late weights the same
+// with late_w_text for w_text.
+std::vector<GuidanceRow> guidance_rows(float w_text, float late_w_text, float w_con, bool has_text,
+                                       bool has_constraints);
+// The same weights at every step.
+inline std::vector<GuidanceRow> guidance_rows(float w_text, float w_con, bool has_text, bool has_constraints) {
+  return guidance_rows(w_text, w_text, w_con, has_text, has_constraints);
+}
+
+// Whether DDIM timestep t is in the lower half of a schedule of
+// num_train_steps (t < num_train_steps / 2): the steps that settle the
+// motion's detail once its content is decided. They combine the rows with
+// their late weights.
+inline bool is_late_step(int64_t t, size_t num_train_steps) {
+  return 2 * t < static_cast<int64_t>(num_train_steps);
+}
 
 // --- cancellation -----------------------------------------------------------------
 
@@ -112,10 +127,13 @@ struct WindowInput {
   // (WindowGoals::root_path_only): guidance that pushes a fully given root
   // path harder makes the body over-commit to it, feet sliding under it.
   float path_guidance_scale = 1.0f;
-  // w_text is multiplied by this where the window has a prompt and no goals:
+  // w_text is multiplied by this where the window has a prompt and no goals,
+  // at the steps in the upper half of the schedule (is_late_step false):
   // with goals the text and goal rows share the guidance, and a stronger text
   // row pulls the body off the goals; alone, the text can take more (the
-  // prompt's motion is clearer and a new prompt shows sooner).
+  // prompt's motion is clearer and a new prompt shows sooner). The late
+  // steps keep w_text: scaled there too, the feet flicked more often (at 1.5,
+  // 6 against 1 of 40 continuity sessions; docs/evaluation/tried/README.md).
   float text_only_guidance_scale = 1.0f;
   bool root_overwrite = true;
   // With root_overwrite, after the last step: the root position entries the

@@ -156,11 +156,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="multiplier of w_con in windows whose goals are a dense root path alone, "
         "0 < scale <= 1 " + unset % RUNTIME_SAMPLING_DEFAULTS["path_guidance_scale"],
     )
+    text_only_scale = (
+        "multiplier of w_text in windows with a prompt and no goals, in the first half of the "
+        "denoising steps, 0 < scale <= 4 "
+    )
     export.add_argument(
         "--text-only-guidance-scale",
         type=float,
-        help="multiplier of w_text in windows with a prompt and no goals, 0 < scale <= 4 "
-        + unset % RUNTIME_SAMPLING_DEFAULTS["text_only_guidance_scale"],
+        help=text_only_scale + unset % RUNTIME_SAMPLING_DEFAULTS["text_only_guidance_scale"],
     )
     export.set_defaults(handler=_export)
 

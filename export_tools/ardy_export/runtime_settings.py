@@ -22,13 +22,13 @@ MAX_OUTPUT_SMOOTHING_FRAMES = 10.0
 # error unchanged (the root is overwritten with the path either way).
 PATH_GUIDANCE_SCALE = 0.5
 
-# Multiplier of w_text in windows with a prompt and no goals (src/sampler.hpp
-# WindowInput::text_only_guidance_scale). With goals, a stronger text row pulls the body off
-# them (w_text 3 everywhere: model-only waypoints 0.324 -> 0.374 m, over their 0.35 m bar).
-# Alone, the stage 29 model at 1.25 and 1.5 was recognized better (R-precision 0.556 ->
-# 0.581 and 0.573), but the C++ continuity session then flicked a foot past its bound in a
-# standing gesture in 2 and 6 of 40 sampler seeds (0 at 1), so packages ship with 1
-# (docs/evaluation/tried, text-only guidance).
+# Multiplier of w_text in windows with a prompt and no goals, at the steps in the upper half
+# of the schedule (src/sampler.hpp WindowInput::text_only_guidance_scale). With goals, a
+# stronger text row pulls the body off them (w_text 3 everywhere: model-only waypoints
+# 0.324 -> 0.374 m, over their 0.35 m bar). Alone, the shipped model at 1.5 was recognized
+# better (R-precision 0.556 -> 0.593), but the C++ continuity session then flicked a foot past
+# its bound in a standing gesture in 4 of 80 sampler seeds (0 at 1; 6 of 40 when every step
+# was scaled), so packages ship with 1 (docs/evaluation/tried, text-only guidance).
 TEXT_ONLY_GUIDANCE_SCALE = 1.0
 # The most the runtime takes (src/package.hpp kMaxTextOnlyGuidanceScale).
 MAX_TEXT_ONLY_GUIDANCE_SCALE = 4.0

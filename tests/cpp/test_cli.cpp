@@ -312,11 +312,16 @@ TEST_CASE("ardy-generate --text-only-guidance-scale scales w_text where only a p
     for (size_t i = 0; i < a.size(); ++i) gap = std::max(gap, std::fabs(a[i] - b[i]));
     return gap;
   };
-  // Text alone: w_text 2 at scale 1.5 is w_text 3.
+  // Text alone, one step (in the upper half of the schedule, where the scale
+  // applies): w_text 2 at scale 1.5 is w_text 3.
   const std::string text_only = R"({"prompts": [{"time": 0, "text": "walk"}]})";
-  const std::vector<double> scaled = hips_path(text_only, " --w-text 2 --text-only-guidance-scale 1.5");
-  CHECK(largest_gap(scaled, hips_path(text_only, " --w-text 3")) < 1e-5);
-  CHECK(largest_gap(scaled, hips_path(text_only, " --w-text 2")) > 1e-4);
+  const std::vector<double> scaled = hips_path(text_only, " --steps 1 --w-text 2 --text-only-guidance-scale 1.5");
+  CHECK(largest_gap(scaled, hips_path(text_only, " --steps 1 --w-text 3")) < 1e-5);
+  CHECK(largest_gap(scaled, hips_path(text_only, " --steps 1 --w-text 2")) > 1e-4);
+  // Four steps: the late two keep w_text 2.
+  const std::vector<double> four = hips_path(text_only, " --w-text 2 --text-only-guidance-scale 1.5");
+  CHECK(largest_gap(four, hips_path(text_only, " --w-text 3")) > 1e-4);
+  CHECK(largest_gap(four, hips_path(text_only, " --w-text 2")) > 1e-4);
   // With a goal ahead of every window the scale changes nothing.
   const std::string with_goal = R"({"prompts": [{"time": 0, "text": "walk"}],
     "constraints": [{"type": "waypoint", "time": 1.9, "x": 1.0, "z": 0.5}]})";

@@ -203,6 +203,40 @@ TEST_CASE("guidance rows are D0, D_text, D_con with zero weights skipped", "[sam
   const auto text_only = ardy::guidance_rows(1.0f, 2.0f, true, false);  // D0 weight 0: skipped
   REQUIRE(text_only.size() == 1);
   CHECK(std::string(text_only[0].name) == "text");
+  CHECK(text_only[0].late_weight == 1.0f);
+}
+
+TEST_CASE("guidance rows with another late text weight: a row stays where either weight is not 0", "[sampler]") {
+  // w_text 1.5 in the upper half of the schedule, 1 below it: D0 has weight
+  // -0.5 early and 0 late, so it is run, and weighs nothing in the late steps.
+  const auto rows = ardy::guidance_rows(1.5f, 1.0f, 2.0f, true, false);
+  REQUIRE(rows.size() == 2);
+  CHECK(std::string(rows[0].name) == "uncond");
+  CHECK(rows[0].weight == -0.5f);
+  CHECK(rows[0].late_weight == 0.0f);
+  CHECK(rows[1].weight == 1.5f);
+  CHECK(rows[1].late_weight == 1.0f);
+  // The goal row keeps its weight at every step.
+  const auto with_goals = ardy::guidance_rows(3.0f, 2.0f, 2.0f, true, true);
+  REQUIRE(with_goals.size() == 3);
+  CHECK(with_goals[0].weight == -4.0f);
+  CHECK(with_goals[0].late_weight == -3.0f);
+  CHECK(with_goals[2].weight == 2.0f);
+  CHECK(with_goals[2].late_weight == 2.0f);
+}
+
+TEST_CASE("the late steps are those in the lower half of the schedule", "[sampler]") {
+  // 4 of 1000 steps: 999 and 666 early, 333 and 0 late.
+  const std::vector<int64_t> timesteps = ardy::ddim_timesteps(1000, 4);
+  REQUIRE(timesteps == std::vector<int64_t>{999, 666, 333, 0});
+  CHECK_FALSE(ardy::is_late_step(999, 1000));
+  CHECK_FALSE(ardy::is_late_step(666, 1000));
+  CHECK_FALSE(ardy::is_late_step(500, 1000));
+  CHECK(ardy::is_late_step(499, 1000));
+  CHECK(ardy::is_late_step(333, 1000));
+  CHECK(ardy::is_late_step(0, 1000));
+  // One step is all early.
+  CHECK_FALSE(ardy::is_late_step(ardy::ddim_timesteps(1000, 1)[0], 1000));
 }
 
 // --- the golden rollout -----------------------------------------------------------------------
@@ -376,7 +410,7 @@ TEST_CASE("path_guidance_scale scales w_con in windows whose goals are a dense r
   CHECK_THAT(error_message([&] { run(other, 2.0f, 1.5f); }), ContainsSubstring("path_guidance_scale is 1.500000"));
 }
 
-TEST_CASE("text_only_guidance_scale scales w_text in windows with a prompt and no goals", "[sampler]") {
+TEST_CASE("text_only_guidance_scale scales w_text in windows with a prompt and no goals, early steps only", "[sampler]") {
   const auto package = tiny_package();
   Rollout text_rollout(package, golden_settings());
   for (const ardy::PromptEvent& e : golden_timeline().prompts) text_rollout.add_prompt(e.frame, e.text);
@@ -384,14 +418,19 @@ TEST_CASE("text_only_guidance_scale scales w_text in windows with a prompt and n
   REQUIRE(text_window.text_embedding.has_value());
   REQUIRE_FALSE(text_window.goals.has_constraints());
   const std::vector<float> noise = golden_noise(0);
-  const auto run = [&](const WindowInput& base, float w_text, float scale) {
+  const auto run = [&](const WindowInput& base, float w_text, float scale, size_t steps = 4) {
     WindowInput in = base;
     in.w_text = w_text;
     in.text_only_guidance_scale = scale;
+    in.steps = steps;
     return ardy::generate_window(*package, in, noise).features;
   };
-  // Text alone: w_text 2 at scale 1.5 is w_text 3 at scale 1, and differs from w_text 2.
-  CHECK(max_abs_diff(run(text_window, 2.0f, 1.5f), run(text_window, 3.0f, 1.0f)) < 1e-6);
+  // Text alone, one step (all in the upper half of the schedule): w_text 2 at
+  // scale 1.5 is w_text 3, and differs from w_text 2.
+  CHECK(max_abs_diff(run(text_window, 2.0f, 1.5f, 1), run(text_window, 3.0f, 1.0f, 1)) < 1e-6);
+  CHECK(max_abs_diff(run(text_window, 2.0f, 1.5f, 1), run(text_window, 2.0f, 1.0f, 1)) > 1e-3);
+  // Four steps: the two late ones keep w_text 2, so the window is neither.
+  CHECK(max_abs_diff(run(text_window, 2.0f, 1.5f), run(text_window, 3.0f, 1.0f)) > 1e-3);
   CHECK(max_abs_diff(run(text_window, 2.0f, 1.5f), run(text_window, 2.0f, 1.0f)) > 1e-3);
   // A window with goals keeps w_text.
   Rollout goal_rollout = golden_rollout();

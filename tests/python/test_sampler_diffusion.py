@@ -12,7 +12,7 @@ from ardy_export.diffusion import DiffusionSchedule, cosine_alphas_cumprod, ddim
 from ardy_export.models import layout as L
 from ardy_export.models.denoiser import Denoiser
 from ardy_export.sampling.constraints import WindowGoals
-from ardy_export.sampling.guidance import combine, guidance_branches
+from ardy_export.sampling.guidance import combine, guidance_branches, is_late_step
 from ardy_export.sampling.sampler import WindowRequest, sample_windows
 from ardy_export.sampling.tiny import random_bundle
 
@@ -131,6 +131,29 @@ def test_guidance_branches(
     wt = w_text if has_text else 0.0
     wc = w_con if has_con else 0.0
     assert torch.allclose(got, d0 + wt * (dt - d0) + wc * (dc - d0), atol=1e-5)
+    assert torch.equal(combine(torch.stack([rows[b.name] for b in brs]), brs, late=True), got)
+
+
+def test_guidance_branches_with_another_late_text_weight() -> None:
+    """w_text 1.5 early and 1 late: D0 weighs -0.5 early and 0 late, so it is evaluated;
+    each step combines with its own weights (tests/cpp/test_sampler.cpp)."""
+    brs = guidance_branches(1.5, 2.0, True, False, late_w_text=1.0)
+    assert [(b.name, b.weight, b.late_weight) for b in brs] == [
+        ("uncond", -0.5, 0.0),
+        ("text", 1.5, 1.0),
+    ]
+    d0, dt = torch.randn(2, 5, 7).unbind(0)
+    outputs = torch.stack((d0, dt))
+    assert torch.allclose(combine(outputs, brs), d0 + 1.5 * (dt - d0), atol=1e-6)
+    assert torch.allclose(combine(outputs, brs, late=True), dt, atol=1e-6)
+    assert [is_late_step(t, 1000) for t in (999, 666, 500, 499, 333, 0)] == [
+        False,
+        False,
+        False,
+        True,
+        True,
+        True,
+    ]
 
 
 def test_one_call_evaluates_all_rows_of_all_windows() -> None:
@@ -244,8 +267,8 @@ def test_path_guidance_scale_scales_w_con_on_dense_path_windows_only() -> None:
 
 
 def test_text_only_guidance_scale_scales_w_text_on_windows_without_goals_only() -> None:
-    """Without goals, w_text 2 at scale 1.5 samples as w_text 3; with goals the scale
-    changes nothing (the C++ sampler's rule, tests/cpp/test_sampler.cpp)."""
+    """Without goals, w_text 2 at scale 1.5 samples as w_text 3 in the early steps; with goals
+    the scale changes nothing (the C++ sampler's rule, tests/cpp/test_sampler.cpp)."""
     bundle = random_bundle(seed=3)
     cfg = bundle.config
     c, d = cfg.window_tokens, cfg.token_dim
@@ -253,15 +276,19 @@ def test_text_only_guidance_scale_scales_w_text_on_windows_without_goals_only() 
     text = rng.standard_normal(384).astype(np.float32)
     noise = rng.standard_normal((c, d)).astype(np.float32)
 
-    def sample(goals: WindowGoals, w_text: float, scale: float) -> np.ndarray:
+    def sample(goals: WindowGoals, w_text: float, scale: float, steps: int = 4) -> np.ndarray:
         request = WindowRequest(np.zeros((0, d), np.float32), text, goals, noise)
         (x0,) = sample_windows(
-            bundle.denoiser, bundle.schedule, [request], 4, w_text, 2.0, True, 1.0, scale
+            bundle.denoiser, bundle.schedule, [request], steps, w_text, 2.0, True, 1.0, scale
         )
         return x0
 
     free = _empty_goals(c, cfg.goal_dim)
-    assert np.allclose(sample(free, 2.0, 1.5), sample(free, 3.0, 1.0), atol=1e-6)
+    # One step is in the upper half of the schedule: the scale applies.
+    assert np.allclose(sample(free, 2.0, 1.5, 1), sample(free, 3.0, 1.0, 1), atol=1e-6)
+    assert not np.allclose(sample(free, 2.0, 1.5, 1), sample(free, 2.0, 1.0, 1), atol=1e-3)
+    # Four steps: the late two keep w_text 2.
+    assert not np.allclose(sample(free, 2.0, 1.5), sample(free, 3.0, 1.0), atol=1e-3)
     assert not np.allclose(sample(free, 2.0, 1.5), sample(free, 2.0, 1.0), atol=1e-3)
     path = _path_goals(c, cfg.patch, c * cfg.patch)
     assert np.allclose(sample(path, 2.0, 1.5), sample(path, 2.0, 1.0), atol=1e-6)

@@ -49,8 +49,8 @@ namespace Ardy
         /// <summary>WCon times this where the goals are a dense root path alone (keyboard steering,
         /// clicked paths), in (0, 1]; NaN: the package default.</summary>
         public float PathGuidanceScale;
-        /// <summary>WText times this where a window has a prompt and no goals, in (0, 4];
-        /// NaN: the package default.</summary>
+        /// <summary>WText times this where a window has a prompt and no goals, at the steps in
+        /// the upper half of the diffusion schedule, in (0, 4]; NaN: the package default.</summary>
         public float TextOnlyGuidanceScale;
         /// <summary>History window (default 8; clamped to the package's maximum).</summary>
         public double HistorySeconds;

@@ -8,6 +8,10 @@ text (1, 0), D_con only the constraints (0, 1). A window without a prompt counts
 w_text = 0, one without any constraint as w_con = 0. A row whose coefficient is exactly zero
 is not evaluated. Rows are always in the order D0, D_text, D_con (skipped ones left out),
 and the combination is summed in that order, starting from coefficient * first row.
+
+The text weight may differ in the late steps, those in the lower half of the diffusion
+schedule (``is_late_step``): each branch has a ``weight`` for the others and a
+``late_weight`` for these, and is evaluated where either is not zero.
 """
 
 from __future__ import annotations
@@ -24,29 +28,44 @@ class Branch:
     name: str  # "uncond", "text" or "constraint"
     text_keep: float
     constraint_keep: float
-    weight: float
+    weight: float  # at the steps in the upper half of the schedule
+    late_weight: float  # at the late steps (is_late_step)
+
+
+def is_late_step(t: int, num_train_steps: int) -> bool:
+    """Whether DDIM timestep ``t`` is in the lower half of the schedule."""
+    return 2 * t < num_train_steps
 
 
 def guidance_branches(
-    w_text: float, w_con: float, has_text: bool, has_constraints: bool
+    w_text: float,
+    w_con: float,
+    has_text: bool,
+    has_constraints: bool,
+    late_w_text: float | None = None,
 ) -> list[Branch]:
+    """The branches of one window; ``late_w_text`` is the text weight of the late steps
+    (default: ``w_text``)."""
     wt = float(w_text) if has_text else 0.0
+    late_wt = (wt if late_w_text is None else float(late_w_text)) if has_text else 0.0
     wc = float(w_con) if has_constraints else 0.0
     rows = [
-        Branch("uncond", 0.0, 0.0, 1.0 - wt - wc),
-        Branch("text", 1.0, 0.0, wt),
-        Branch("constraint", 0.0, 1.0, wc),
+        Branch("uncond", 0.0, 0.0, 1.0 - wt - wc, 1.0 - late_wt - wc),
+        Branch("text", 1.0, 0.0, wt, late_wt),
+        Branch("constraint", 0.0, 1.0, wc, wc),
     ]
-    return [b for b in rows if b.weight != 0.0]
+    return [b for b in rows if b.weight != 0.0 or b.late_weight != 0.0]
 
 
-def combine(outputs: Tensor, branches: Sequence[Branch]) -> Tensor:
-    """outputs [R, ...] for the R branches in order -> guided x0 [...]."""
+def combine(outputs: Tensor, branches: Sequence[Branch], late: bool = False) -> Tensor:
+    """outputs [R, ...] for the R branches in order -> guided x0 [...]; ``late`` picks
+    the late steps' weights."""
     if outputs.shape[0] != len(branches):
         raise ValueError(f"{outputs.shape[0]} rows for {len(branches)} branches")
-    result = branches[0].weight * outputs[0]
+    weights = [b.late_weight if late else b.weight for b in branches]
+    result = weights[0] * outputs[0]
     for i in range(1, len(branches)):
-        result = result + branches[i].weight * outputs[i]
+        result = result + weights[i] * outputs[i]
     return result
 
 

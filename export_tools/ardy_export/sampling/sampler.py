@@ -35,7 +35,7 @@ from ardy_export.models.kinematics import fk_world, global_to_local, rot6d_to_ma
 from ardy_export.models.layout import Skeleton
 from ardy_export.models.tokenizer import BodyTokenizer, TokenizerConfig
 from ardy_export.sampling.constraints import Constraint, WindowGoals, window_goals
-from ardy_export.sampling.guidance import Branch, combine, guidance_branches
+from ardy_export.sampling.guidance import Branch, combine, guidance_branches, is_late_step
 
 
 @dataclass
@@ -188,7 +188,8 @@ def sample_windows(
     what the network itself learned; the runtime always overwrites).
     ``path_guidance_scale`` multiplies ``w_con`` in windows whose goals are a dense root path
     alone (``WindowGoals.root_path_only``); ``text_only_guidance_scale`` multiplies ``w_text``
-    in windows with no goals.
+    in windows with no goals, at the steps in the upper half of the schedule (the late steps
+    keep ``w_text``).
     """
     cfg = denoiser.config
     branches = [
@@ -197,6 +198,7 @@ def sample_windows(
             w_con * path_guidance_scale if r.goals.root_path_only else w_con,
             r.text_embedding is not None,
             r.goals.has_constraints,
+            late_w_text=w_text,
         )
         for r in requests
     ]
@@ -207,6 +209,7 @@ def sample_windows(
     timesteps = ddim_timesteps(schedule.num_steps, steps)
     x0_list: list[Tensor] = []
     for i, t in enumerate(timesteps):
+        late = is_late_step(t, schedule.num_steps)
         x_rows = torch.cat(
             [xi.unsqueeze(0).expand(len(b), -1, -1) for xi, b in zip(x, branches, strict=True)]
         )
@@ -215,7 +218,7 @@ def sample_windows(
         x0_list = []
         start = 0
         for (g_root, v_root), brs in zip(root_goals, branches, strict=True):
-            x0 = combine(out[start : start + len(brs)], brs)
+            x0 = combine(out[start : start + len(brs)], brs, late)
             start += len(brs)
             if root_overwrite:
                 root = (1.0 - v_root) * x0[:, :rd] + v_root * g_root
